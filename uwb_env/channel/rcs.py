@@ -1,0 +1,20 @@
+"""Swerling radar-cross-section fluctuation (scan-to-scan).
+
+The RCS of a scan is sigma_mean x factor, with a factor of unit mean:
+    Swerling 0: 1;  Swerling I: exponential (chi-square, 2 dof);  Swerling III: chi-square with 4 dof / 4,
+    i.e. Gamma(2, 1/2) -- seed 002's model of a person.
+Each call consumes exactly two standard exponentials per entry whatever the Swerling case, so the stream stays
+aligned across configurations (common random numbers): factor_I = e1, factor_III = (e1 + e2) / 2.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from uwb_env.typing import FloatArray, IntArray
+
+
+def rcs_fluctuation(swerling: IntArray, shape: tuple[int, ...], rng: np.random.Generator) -> FloatArray:
+    """Unit-mean RCS factors of shape ``shape + (K,)`` for targets with Swerling cases ``swerling`` (K,)."""
+    e = rng.standard_exponential((2, *shape, swerling.shape[0]))
+    return np.where(swerling == 0, 1.0, np.where(swerling == 1, e[0], 0.5 * (e[0] + e[1])))

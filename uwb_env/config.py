@@ -1,0 +1,781 @@
+"""Typed, validated configuration for every knob of a scenario (SPEC.md "config.py").
+
+Conventions:
+    * Frozen ``slots`` dataclasses; tuples, never lists, so configs are hashable and immutable.
+    * SI units, named in the field (``_m``, ``_s``, ``_hz``, ``_mps``); decibels only in ``_db`` / ``_dbm`` fields.
+    * Validation in ``__post_init__``: a bad value raises ``ValueError`` naming the field, the value and what is
+      allowed, at construction -- never mid-episode.
+    * Coordinates are 2-D ``(x, y)`` in metres in one global Cartesian frame; angles in degrees at this boundary
+      (``_deg``), radians inside the kernels.
+    * Fields whose type is a union of configs (trajectories, waveforms) are tagged with ``kind`` in YAML.
+
+``to_dict`` / ``from_dict`` / ``save_yaml`` / ``load_yaml`` round-trip any config exactly, and
+``apply_overrides(cfg, {"sensing.false_alarm_probability": 1e-4, "receivers.0.noise_figure_db": 7.0})`` replaces
+fields by dotted path (integers index tuples), re-validates, and raises ``KeyError`` on an unknown key with a
+"did you mean" hint.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+import types
+import typing
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, ClassVar, Literal, Union, get_args, get_origin
+
+import yaml
+
+Vec2 = tuple[float, float]
+
+
+# ----------------------------------------------------------------------------------------------- validation helpers
+def _fail(owner: str, name: str, value: object, allowed: str) -> typing.NoReturn:
+    raise ValueError(f"{owner}.{name} = {value!r}: must be {allowed}")
+
+
+def _finite(owner: str, name: str, value: float) -> None:
+    if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
+        _fail(owner, name, value, "a finite number")
+
+
+def _positive(owner: str, name: str, value: float) -> None:
+    _finite(owner, name, value)
+    if value <= 0:
+        _fail(owner, name, value, "> 0")
+
+
+def _non_negative(owner: str, name: str, value: float) -> None:
+    _finite(owner, name, value)
+    if value < 0:
+        _fail(owner, name, value, ">= 0")
+
+
+def _in_range(owner: str, name: str, value: float, lo: float, hi: float, *, closed: str = "[]") -> None:
+    _finite(owner, name, value)
+    ok_lo = value >= lo if closed[0] == "[" else value > lo
+    ok_hi = value <= hi if closed[1] == "]" else value < hi
+    if not (ok_lo and ok_hi):
+        _fail(owner, name, value, f"in {closed[0]}{lo}, {hi}{closed[1]}")
+
+
+def _vec2(owner: str, name: str, value: object) -> None:
+    if (
+        not isinstance(value, tuple)
+        or len(value) != 2
+        or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
+    ):
+        _fail(owner, name, value, "a tuple (x, y) of two finite numbers in metres")
+
+
+def _choice(owner: str, name: str, value: object, allowed: tuple[object, ...]) -> None:
+    if value not in allowed:
+        hint = ""
+        if isinstance(value, str):
+            close = difflib.get_close_matches(value, [str(a) for a in allowed], n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+        _fail(owner, name, value, f"one of {allowed}{hint}")
+
+
+def _int_at_least(owner: str, name: str, value: object, lo: int) -> None:
+    if not isinstance(value, int) or isinstance(value, bool) or value < lo:
+        _fail(owner, name, value, f"an integer >= {lo}")
+
+
+def _name(owner: str, value: object) -> None:
+    if not isinstance(value, str) or not value.strip():
+        _fail(owner, "name", value, "a non-empty string")
+
+
+# --------------------------------------------------------------------------------------------------------- geometry
+@dataclass(frozen=True, slots=True)
+class Box:
+    """Axis-aligned rectangle [m]: the world, the surveillance area, a start region."""
+
+    x_min_m: float
+    x_max_m: float
+    y_min_m: float
+    y_max_m: float
+
+    def __post_init__(self) -> None:
+        for f in ("x_min_m", "x_max_m", "y_min_m", "y_max_m"):
+            _finite("Box", f, getattr(self, f))
+        if self.x_max_m <= self.x_min_m:
+            _fail("Box", "x_max_m", self.x_max_m, f"> x_min_m = {self.x_min_m}")
+        if self.y_max_m <= self.y_min_m:
+            _fail("Box", "y_max_m", self.y_max_m, f"> y_min_m = {self.y_min_m}")
+
+    @property
+    def area_m2(self) -> float:
+        """Area [m^2]."""
+        return (self.x_max_m - self.x_min_m) * (self.y_max_m - self.y_min_m)
+
+    def contains(self, point: Vec2) -> bool:
+        """Whether a point lies inside or on the boundary."""
+        return self.x_min_m <= point[0] <= self.x_max_m and self.y_min_m <= point[1] <= self.y_max_m
+
+    def contains_box(self, other: Box) -> bool:
+        """Whether ``other`` lies entirely inside this box."""
+        return self.contains((other.x_min_m, other.y_min_m)) and self.contains((other.x_max_m, other.y_max_m))
+
+
+# ------------------------------------------------------------------------------------------------------------ nodes
+@dataclass(frozen=True, slots=True)
+class UniformLinearArrayConfig:
+    """A receiver's uniform linear array (seed 003 section 3.2: L_m elements spaced d_m).
+
+    ``boresight_deg`` is the direction the broadside of the array faces, counter-clockwise from +x. Targets
+    outside ``+-field_of_view_deg`` of boresight are not seen by the array receiver.
+    """
+
+    n_elements: int = 3
+    spacing_m: float = 0.0375
+    boresight_deg: float = 90.0
+    field_of_view_deg: float = 60.0
+
+    def __post_init__(self) -> None:
+        _int_at_least("UniformLinearArrayConfig", "n_elements", self.n_elements, 2)
+        _positive("UniformLinearArrayConfig", "spacing_m", self.spacing_m)
+        _in_range("UniformLinearArrayConfig", "boresight_deg", self.boresight_deg, -360.0, 360.0)
+        _in_range("UniformLinearArrayConfig", "field_of_view_deg", self.field_of_view_deg, 0.0, 89.0, closed="(]")
+
+
+@dataclass(frozen=True, slots=True)
+class TransmitterConfig:
+    """A transmitter node.
+
+    ``power_dbm`` is the average transmitted power for impulse waveforms (energy per pulse = P / PRF, seed 000
+    section VI) and the peak envelope power for Gaussian chirps (energy per pulse = P kappa sqrt(pi), seed 003 eq. 1).
+    """
+
+    name: str
+    position_m: Vec2
+    power_dbm: float
+    antenna_gain_db: float = 0.0
+
+    def __post_init__(self) -> None:
+        _name("TransmitterConfig", self.name)
+        _vec2("TransmitterConfig", "position_m", self.position_m)
+        _in_range("TransmitterConfig", "power_dbm", self.power_dbm, -100.0, 100.0)
+        _in_range("TransmitterConfig", "antenna_gain_db", self.antenna_gain_db, -30.0, 60.0)
+
+
+@dataclass(frozen=True, slots=True)
+class ReceiverConfig:
+    """A receiver node, optionally a uniform linear array (its coherent gain multiplies the SNR by L)."""
+
+    name: str
+    position_m: Vec2
+    noise_figure_db: float = 4.8
+    antenna_gain_db: float = 0.0
+    array: UniformLinearArrayConfig | None = None
+
+    def __post_init__(self) -> None:
+        _name("ReceiverConfig", self.name)
+        _vec2("ReceiverConfig", "position_m", self.position_m)
+        _in_range("ReceiverConfig", "noise_figure_db", self.noise_figure_db, 0.0, 40.0)
+        _in_range("ReceiverConfig", "antenna_gain_db", self.antenna_gain_db, -30.0, 60.0)
+
+
+# ------------------------------------------------------------------------------------------------- walls, clutter
+@dataclass(frozen=True, slots=True)
+class MaterialConfig:
+    """Wall material: one-way loss per crossing and the excess delay it adds (seed 002 section II-D).
+
+    ``loss_db = inf`` is an opaque obstacle (a building): nothing is seen through it.
+    """
+
+    name: str
+    loss_db: float
+    excess_delay_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        _name("MaterialConfig", self.name)
+        if not isinstance(self.loss_db, (int, float)) or math.isnan(self.loss_db) or self.loss_db < 0:
+            _fail("MaterialConfig", "loss_db", self.loss_db, ">= 0 (inf for an opaque obstacle)")
+        _in_range("MaterialConfig", "excess_delay_s", self.excess_delay_s, 0.0, 1e-6)
+
+
+@dataclass(frozen=True, slots=True)
+class WallConfig:
+    """A wall or obstacle face: the segment from ``start_m`` to ``end_m``."""
+
+    start_m: Vec2
+    end_m: Vec2
+    material: MaterialConfig
+
+    def __post_init__(self) -> None:
+        _vec2("WallConfig", "start_m", self.start_m)
+        _vec2("WallConfig", "end_m", self.end_m)
+        if math.dist(self.start_m, self.end_m) <= 0:
+            _fail("WallConfig", "end_m", self.end_m, "different from start_m (a wall has non-zero length)")
+
+
+@dataclass(frozen=True, slots=True)
+class LineScattererConfig:
+    """A smooth reflecting line (seed 003 section 3.1: y = m x + c, restricted to a segment)."""
+
+    start_m: Vec2
+    end_m: Vec2
+    reflectivity: float = 0.5
+
+    def __post_init__(self) -> None:
+        _vec2("LineScattererConfig", "start_m", self.start_m)
+        _vec2("LineScattererConfig", "end_m", self.end_m)
+        if math.dist(self.start_m, self.end_m) <= 0:
+            _fail("LineScattererConfig", "end_m", self.end_m, "different from start_m")
+        _in_range("LineScattererConfig", "reflectivity", self.reflectivity, 0.0, 1.0)
+
+
+@dataclass(frozen=True, slots=True)
+class ClutterConfig:
+    """False-alarm (clutter) model of the parametric path.
+
+    False detections are a spatial Poisson process of ``density_per_m2`` over the surveillance area; a fraction
+    ``discrete_fraction`` of them is concentrated around the scene's clutter points (vegetation, seed 003 Fig. 3)
+    with Gaussian spread ``discrete_spread_m``, the rest is uniform. Each pair sees an independent realisation,
+    thinned to its coverage gate. Range-rates of false detections are uniform in +-``range_rate_max_mps``.
+    """
+
+    density_per_m2: float = 0.0
+    discrete_fraction: float = 0.0
+    discrete_spread_m: float = 3.0
+    range_rate_max_mps: float = 30.0
+
+    def __post_init__(self) -> None:
+        _in_range("ClutterConfig", "density_per_m2", self.density_per_m2, 0.0, 1.0)
+        _in_range("ClutterConfig", "discrete_fraction", self.discrete_fraction, 0.0, 1.0)
+        _positive("ClutterConfig", "discrete_spread_m", self.discrete_spread_m)
+        _positive("ClutterConfig", "range_rate_max_mps", self.range_rate_max_mps)
+
+
+@dataclass(frozen=True, slots=True)
+class ChannelConfig:
+    """Propagation: IEEE 802.15.4a path-loss form PL(f, d) = PL0 (f/fc)^(2(kappa+1)) (d/d0)^rho per leg.
+
+    Seed 000 eq. 9 / seed 002 eq. 4. PL0 is free-space at d0 plus ``excess_loss_db``; rho = 2, kappa = 0 and no
+    excess is free space, where the SNR reduces to seed 000 eqs. 1-3.
+    """
+
+    path_loss_exponent: float = 2.0
+    frequency_exponent: float = 0.0
+    reference_distance_m: float = 1.0
+    excess_loss_db: float = 0.0
+
+    def __post_init__(self) -> None:
+        _in_range("ChannelConfig", "path_loss_exponent", self.path_loss_exponent, 1.0, 6.0)
+        _in_range("ChannelConfig", "frequency_exponent", self.frequency_exponent, -3.0, 3.0)
+        _positive("ChannelConfig", "reference_distance_m", self.reference_distance_m)
+        _in_range("ChannelConfig", "excess_loss_db", self.excess_loss_db, 0.0, 200.0)
+
+
+# ------------------------------------------------------------------------------------------------- targets, motion
+@dataclass(frozen=True, slots=True)
+class MotionSegmentConfig:
+    """One piece of a deterministic trajectory.
+
+    ``cv``: constant velocity. ``ca``: constant tangential acceleration ``acceleration_mps2`` along the heading
+    (negative decelerates; the speed must stay positive). ``ct``: coordinated turn at ``turn_rate_rps`` (positive
+    = left / counter-clockwise) at constant speed.
+    """
+
+    kind: Literal["cv", "ca", "ct"]
+    duration_s: float
+    acceleration_mps2: float = 0.0
+    turn_rate_rps: float = 0.0
+
+    def __post_init__(self) -> None:
+        _choice("MotionSegmentConfig", "kind", self.kind, ("cv", "ca", "ct"))
+        _positive("MotionSegmentConfig", "duration_s", self.duration_s)
+        _finite("MotionSegmentConfig", "acceleration_mps2", self.acceleration_mps2)
+        _finite("MotionSegmentConfig", "turn_rate_rps", self.turn_rate_rps)
+        if self.kind != "ca" and self.acceleration_mps2 != 0:
+            _fail("MotionSegmentConfig", "acceleration_mps2", self.acceleration_mps2, f"0 for kind {self.kind!r}")
+        if self.kind != "ct" and self.turn_rate_rps != 0:
+            _fail("MotionSegmentConfig", "turn_rate_rps", self.turn_rate_rps, f"0 for kind {self.kind!r}")
+        if self.kind == "ct" and self.turn_rate_rps == 0:
+            _fail("MotionSegmentConfig", "turn_rate_rps", self.turn_rate_rps, "non-zero for a coordinated turn")
+
+
+@dataclass(frozen=True, slots=True)
+class SegmentedTrajectoryConfig:
+    """A deterministic trajectory: start state then segments in order (seed 003 section V)."""
+
+    kind: ClassVar[str] = "segments"
+    start_position_m: Vec2
+    start_velocity_mps: Vec2
+    segments: tuple[MotionSegmentConfig, ...]
+
+    def __post_init__(self) -> None:
+        _vec2("SegmentedTrajectoryConfig", "start_position_m", self.start_position_m)
+        _vec2("SegmentedTrajectoryConfig", "start_velocity_mps", self.start_velocity_mps)
+        if math.hypot(*self.start_velocity_mps) <= 0:
+            _fail("SegmentedTrajectoryConfig", "start_velocity_mps", self.start_velocity_mps, "non-zero")
+        if not isinstance(self.segments, tuple) or not self.segments:
+            _fail("SegmentedTrajectoryConfig", "segments", self.segments, "a non-empty tuple of segments")
+
+    @property
+    def duration_s(self) -> float:
+        """Total duration [s]."""
+        return float(sum(s.duration_s for s in self.segments))
+
+
+@dataclass(frozen=True, slots=True)
+class MotionModelTrajectoryConfig:
+    """A random trajectory driven by a motion model (seed 003 section 3.3) on the truth stream.
+
+    ``model``: ``ncv`` (white-noise acceleration), ``ct`` (coordinated turn at ``turn_rate_rps`` with the same
+    noise), ``nca`` (Wiener-sequence acceleration). ``accel_noise_std_mps2`` is sigma_w of seed 003's Q = sigma_w^2 G
+    G^T (for ``nca`` it drives the acceleration increments, in m/s^2 per step).
+    """
+
+    kind: ClassVar[str] = "motion_model"
+    start_position_m: Vec2
+    start_velocity_mps: Vec2
+    model: Literal["ncv", "ct", "nca"]
+    duration_s: float
+    accel_noise_std_mps2: float = 0.1
+    turn_rate_rps: float = 0.0
+
+    def __post_init__(self) -> None:
+        _vec2("MotionModelTrajectoryConfig", "start_position_m", self.start_position_m)
+        _vec2("MotionModelTrajectoryConfig", "start_velocity_mps", self.start_velocity_mps)
+        _choice("MotionModelTrajectoryConfig", "model", self.model, ("ncv", "ct", "nca"))
+        _positive("MotionModelTrajectoryConfig", "duration_s", self.duration_s)
+        _non_negative("MotionModelTrajectoryConfig", "accel_noise_std_mps2", self.accel_noise_std_mps2)
+        _finite("MotionModelTrajectoryConfig", "turn_rate_rps", self.turn_rate_rps)
+        if self.model == "ct" and self.turn_rate_rps == 0:
+            _fail("MotionModelTrajectoryConfig", "turn_rate_rps", self.turn_rate_rps, "non-zero for model 'ct'")
+
+
+@dataclass(frozen=True, slots=True)
+class RoomWalkTrajectoryConfig:
+    """A random indoor walk (seed 002 section V): ``length_m`` at ``speed_mps`` that never crosses a wall.
+
+    The start is uniform in ``start_region`` (at least ``wall_clearance_m`` from any wall). Each step of
+    ``step_m`` turns the heading by N(0, ``heading_change_std_rad``^2); a step that would cross a wall or come
+    closer than the clearance is redrawn, so the walk stays inside rooms and moves between rooms only through
+    door gaps.
+    """
+
+    kind: ClassVar[str] = "room_walk"
+    start_region: Box
+    length_m: float = 20.0
+    speed_mps: float = 1.0
+    heading_change_std_rad: float = 0.35
+    step_m: float = 0.25
+    wall_clearance_m: float = 0.3
+
+    def __post_init__(self) -> None:
+        _positive("RoomWalkTrajectoryConfig", "length_m", self.length_m)
+        _positive("RoomWalkTrajectoryConfig", "speed_mps", self.speed_mps)
+        _non_negative("RoomWalkTrajectoryConfig", "heading_change_std_rad", self.heading_change_std_rad)
+        _positive("RoomWalkTrajectoryConfig", "step_m", self.step_m)
+        _non_negative("RoomWalkTrajectoryConfig", "wall_clearance_m", self.wall_clearance_m)
+        if self.step_m > self.length_m:
+            _fail("RoomWalkTrajectoryConfig", "step_m", self.step_m, f"<= length_m = {self.length_m}")
+
+    @property
+    def duration_s(self) -> float:
+        """Walk duration [s]."""
+        return self.length_m / self.speed_mps
+
+
+TrajectoryConfig = Union[SegmentedTrajectoryConfig, MotionModelTrajectoryConfig, RoomWalkTrajectoryConfig]
+
+
+@dataclass(frozen=True, slots=True)
+class TargetConfig:
+    """A target: its trajectory, birth time and radar cross-section model.
+
+    ``swerling``: 0 (non-fluctuating), 1 (exponential RCS, scan-to-scan) or 3 (chi-square with 4 degrees of
+    freedom, scan-to-scan; seed 002's model of a person).
+    """
+
+    name: str
+    trajectory: TrajectoryConfig
+    birth_time_s: float = 0.0
+    rcs_mean_m2: float = 1.0
+    swerling: int = 1
+
+    def __post_init__(self) -> None:
+        _name("TargetConfig", self.name)
+        if not isinstance(self.trajectory, _TRAJECTORY_TYPES):
+            _fail("TargetConfig", "trajectory", self.trajectory, f"one of {[t.__name__ for t in _TRAJECTORY_TYPES]}")
+        _non_negative("TargetConfig", "birth_time_s", self.birth_time_s)
+        _positive("TargetConfig", "rcs_mean_m2", self.rcs_mean_m2)
+        _choice("TargetConfig", "swerling", self.swerling, (0, 1, 3))
+
+
+_TRAJECTORY_TYPES = (SegmentedTrajectoryConfig, MotionModelTrajectoryConfig, RoomWalkTrajectoryConfig)
+
+
+# ------------------------------------------------------------------------------------------------------- waveforms
+@dataclass(frozen=True, slots=True)
+class ChirpWaveformConfig:
+    """Gaussian-windowed linear chirp, seed 003 eq. 1.
+
+    s(t) = (pi kappa^2)^(-1/4) exp((+-j gamma - 1/(2 kappa^2)) t^2), repeated ``n_pulses`` times every ``pri_s``.
+    ``bandwidth_hz`` is the frequency swept over t in [-kappa, kappa], so gamma = pi B / (2 kappa) [rad/s^2]
+    (our reading of the seed's "40 MHz of bandwidth"). ``sweep`` "up" is +gamma, "down" is -gamma.
+    """
+
+    kind: ClassVar[str] = "chirp"
+    name: str
+    pulse_duration_s: float
+    bandwidth_hz: float
+    carrier_hz: float
+    sweep: Literal["up", "down"] = "up"
+    n_pulses: int = 25
+    pri_s: float = 0.01
+
+    def __post_init__(self) -> None:
+        _name("ChirpWaveformConfig", self.name)
+        _in_range("ChirpWaveformConfig", "pulse_duration_s", self.pulse_duration_s, 1e-10, 1e-2, closed="[]")
+        _positive("ChirpWaveformConfig", "carrier_hz", self.carrier_hz)
+        _positive("ChirpWaveformConfig", "bandwidth_hz", self.bandwidth_hz)
+        if self.bandwidth_hz >= self.carrier_hz:
+            _fail("ChirpWaveformConfig", "bandwidth_hz", self.bandwidth_hz, f"< carrier_hz = {self.carrier_hz}")
+        tb = self.bandwidth_hz * self.pulse_duration_s
+        if tb > 1e5:
+            _fail("ChirpWaveformConfig", "bandwidth_hz", self.bandwidth_hz,
+                  f"such that bandwidth x pulse_duration <= 1e5 (got {tb:.3g})")
+        _choice("ChirpWaveformConfig", "sweep", self.sweep, ("up", "down"))
+        _int_at_least("ChirpWaveformConfig", "n_pulses", self.n_pulses, 1)
+        _positive("ChirpWaveformConfig", "pri_s", self.pri_s)
+        if self.pri_s <= 4 * self.pulse_duration_s:
+            _fail("ChirpWaveformConfig", "pri_s", self.pri_s, f"> 4 x pulse_duration_s = {4 * self.pulse_duration_s}")
+
+
+@dataclass(frozen=True, slots=True)
+class EnergyDetectorToaConfig:
+    """Seed 002 section III: energy-detector threshold ToA estimator (integration time, observation window)."""
+
+    integration_time_s: float = 4e-9
+    observation_window_s: float = 100e-9
+
+    def __post_init__(self) -> None:
+        _in_range("EnergyDetectorToaConfig", "integration_time_s", self.integration_time_s, 1e-11, 1e-6)
+        if not self.observation_window_s > self.integration_time_s:
+            _fail("EnergyDetectorToaConfig", "observation_window_s", self.observation_window_s,
+                  f"> integration_time_s = {self.integration_time_s}")
+        _in_range("EnergyDetectorToaConfig", "observation_window_s", self.observation_window_s, 1e-10, 1e-4)
+
+
+@dataclass(frozen=True, slots=True)
+class ImpulseWaveformConfig:
+    """UWB impulse-radio waveform (seeds 000, 002): a Gaussian-shaped band-pass pulse train.
+
+    The pulse spectrum is Gaussian around ``center_freq_hz`` with -10 dB width ``bandwidth_hz`` (the
+    high-order limit of a Gaussian-derivative pulse); ``n_pulses`` (Ns) pulses at ``prf_hz`` are integrated per
+    scan. ``toa_error_model``: ``crlb`` (ToA variance 1 / (8 pi^2 beta^2 SNR)) or ``energy_detector`` (seed 002's
+    three-region sigma(SNR), eq. 9 and its Table).
+    """
+
+    kind: ClassVar[str] = "impulse"
+    name: str
+    center_freq_hz: float
+    bandwidth_hz: float
+    n_pulses: int = 128
+    prf_hz: float = 5e6
+    toa_error_model: Literal["crlb", "energy_detector"] = "crlb"
+    energy_detector: EnergyDetectorToaConfig = field(default_factory=EnergyDetectorToaConfig)
+
+    def __post_init__(self) -> None:
+        _name("ImpulseWaveformConfig", self.name)
+        _positive("ImpulseWaveformConfig", "center_freq_hz", self.center_freq_hz)
+        _positive("ImpulseWaveformConfig", "bandwidth_hz", self.bandwidth_hz)
+        if self.bandwidth_hz >= 2 * self.center_freq_hz:
+            _fail("ImpulseWaveformConfig", "bandwidth_hz", self.bandwidth_hz,
+                  f"< 2 x center_freq_hz = {2 * self.center_freq_hz}")
+        _int_at_least("ImpulseWaveformConfig", "n_pulses", self.n_pulses, 1)
+        _in_range("ImpulseWaveformConfig", "prf_hz", self.prf_hz, 1.0, 1e9, closed="[]")
+        _choice("ImpulseWaveformConfig", "toa_error_model", self.toa_error_model, ("crlb", "energy_detector"))
+
+
+WaveformConfig = Union[ChirpWaveformConfig, ImpulseWaveformConfig]
+_WAVEFORM_TYPES = (ChirpWaveformConfig, ImpulseWaveformConfig)
+
+
+# ---------------------------------------------------------------------------------------------- sensing, tracker
+@dataclass(frozen=True, slots=True)
+class SensingConfig:
+    """How a scan is sensed.
+
+    ``max_range_m``: a target is covered by a pair only if both legs are shorter. ``blind_zone_excess_m``:
+    detections whose bistatic range exceeds the baseline by less than this are discarded (seed 000 section IV-G;
+    for a monostatic radar this is twice seed 002's blind range d*). ``measure_doa`` adds the azimuth measured by
+    array receivers.
+    """
+
+    fidelity: Literal["parametric", "signal"] = "parametric"
+    scan_period_s: float = 0.25
+    false_alarm_probability: float = 1e-4
+    max_range_m: float = 300.0
+    blind_zone_excess_m: float = 0.0
+    measure_doa: bool = False
+    clutter: ClutterConfig = field(default_factory=ClutterConfig)
+
+    def __post_init__(self) -> None:
+        _choice("SensingConfig", "fidelity", self.fidelity, ("parametric", "signal"))
+        _positive("SensingConfig", "scan_period_s", self.scan_period_s)
+        _in_range("SensingConfig", "false_alarm_probability", self.false_alarm_probability, 0.0, 0.1, closed="(]")
+        _positive("SensingConfig", "max_range_m", self.max_range_m)
+        _non_negative("SensingConfig", "blind_zone_excess_m", self.blind_zone_excess_m)
+        if not isinstance(self.measure_doa, bool):
+            _fail("SensingConfig", "measure_doa", self.measure_doa, "a bool")
+
+
+@dataclass(frozen=True, slots=True)
+class TrackerConfig:
+    """Tracker knobs (filled out by the tracker issue): gate probability and existence thresholds."""
+
+    gate_probability: float = 0.99
+    initial_existence: float = 0.2
+    confirm_existence: float = 0.9
+    terminate_existence: float = 0.05
+    max_speed_mps: float = 20.0
+
+    def __post_init__(self) -> None:
+        _in_range("TrackerConfig", "gate_probability", self.gate_probability, 0.0, 1.0, closed="(]")
+        for f in ("initial_existence", "confirm_existence", "terminate_existence"):
+            _in_range("TrackerConfig", f, getattr(self, f), 0.0, 1.0, closed="()")
+        if not self.terminate_existence < self.initial_existence < self.confirm_existence:
+            _fail("TrackerConfig", "initial_existence", self.initial_existence,
+                  "strictly between terminate_existence and confirm_existence")
+        _positive("TrackerConfig", "max_speed_mps", self.max_speed_mps)
+
+
+# ------------------------------------------------------------------------------------------------------- scenario
+@dataclass(frozen=True, slots=True)
+class ScenarioConfig:
+    """A whole scenario: scene, targets, waveform library, channel, sensing and tracker settings.
+
+    ``surveillance_area`` is where targets are tracked and clutter falls; ``world`` bounds everything (nodes,
+    walls, trajectories). ``n_scans`` scans of ``sensing.scan_period_s`` make an episode. ``pairs`` lists the
+    (transmitter, receiver) index pairs that form radars; empty means every combination (a multistatic network);
+    a network of monostatic radars lists ``((0, 0), (1, 1), ...)``.
+    """
+
+    name: str
+    world: Box
+    surveillance_area: Box
+    transmitters: tuple[TransmitterConfig, ...]
+    receivers: tuple[ReceiverConfig, ...]
+    waveforms: tuple[WaveformConfig, ...]
+    targets: tuple[TargetConfig, ...]
+    n_scans: int
+    walls: tuple[WallConfig, ...] = ()
+    line_scatterers: tuple[LineScattererConfig, ...] = ()
+    clutter_points_m: tuple[Vec2, ...] = ()
+    pairs: tuple[tuple[int, int], ...] = ()
+    channel: ChannelConfig = field(default_factory=ChannelConfig)
+    sensing: SensingConfig = field(default_factory=SensingConfig)
+    tracker: TrackerConfig = field(default_factory=TrackerConfig)
+    description: str = ""
+    seed_reference: str = ""
+
+    def __post_init__(self) -> None:
+        _name("ScenarioConfig", self.name)
+        if not self.world.contains_box(self.surveillance_area):
+            _fail("ScenarioConfig", "surveillance_area", self.surveillance_area, f"inside world {self.world}")
+        for group in ("transmitters", "receivers", "waveforms", "targets"):
+            items = getattr(self, group)
+            if not isinstance(items, tuple) or not items:
+                _fail("ScenarioConfig", group, items, "a non-empty tuple")
+            names = [it.name for it in items]
+            dup = sorted({n for n in names if names.count(n) > 1})
+            if dup:
+                _fail("ScenarioConfig", group, names, f"uniquely named (duplicates: {dup})")
+        for group in ("transmitters", "receivers"):
+            for i, node in enumerate(getattr(self, group)):
+                if not self.world.contains(node.position_m):
+                    _fail("ScenarioConfig", f"{group}[{i}] ({node.name!r}).position_m", node.position_m,
+                          f"inside the world {self.world}")
+        for i, w in enumerate(self.waveforms):
+            if not isinstance(w, _WAVEFORM_TYPES):
+                _fail("ScenarioConfig", f"waveforms[{i}]", w, "a ChirpWaveformConfig or ImpulseWaveformConfig")
+        kinds = {type(w) for w in self.waveforms}
+        if len(kinds) > 1:
+            _fail("ScenarioConfig", "waveforms", [w.name for w in self.waveforms],
+                  "all of one kind (chirp or impulse): the measurement space must not change with the action")
+        _int_at_least("ScenarioConfig", "n_scans", self.n_scans, 1)
+        duration = self.n_scans * self.sensing.scan_period_s
+        for i, t in enumerate(self.targets):
+            if t.birth_time_s >= duration:
+                _fail("ScenarioConfig", f"targets[{i}] ({t.name!r}).birth_time_s", t.birth_time_s,
+                      f"< episode duration n_scans x scan_period_s = {duration}")
+            start = getattr(t.trajectory, "start_position_m", None)
+            if start is not None and not self.world.contains(start):
+                _fail("ScenarioConfig", f"targets[{i}] ({t.name!r}).trajectory.start_position_m", start,
+                      f"inside the world {self.world}")
+            region = getattr(t.trajectory, "start_region", None)
+            if region is not None and not self.world.contains_box(region):
+                _fail("ScenarioConfig", f"targets[{i}] ({t.name!r}).trajectory.start_region", region,
+                      f"inside the world {self.world}")
+        for i, p in enumerate(self.clutter_points_m):
+            _vec2("ScenarioConfig", f"clutter_points_m[{i}]", p)
+        seen = set()
+        for i, pair in enumerate(self.pairs):
+            if (not isinstance(pair, tuple) or len(pair) != 2
+                    or not 0 <= pair[0] < len(self.transmitters) or not 0 <= pair[1] < len(self.receivers)):
+                _fail("ScenarioConfig", f"pairs[{i}]", pair,
+                      f"(tx, rx) with 0 <= tx < {len(self.transmitters)} and 0 <= rx < {len(self.receivers)}")
+            if pair in seen:
+                _fail("ScenarioConfig", f"pairs[{i}]", pair, "listed once")
+            seen.add(pair)
+        if self.sensing.clutter.discrete_fraction > 0 and not self.clutter_points_m:
+            _fail("ScenarioConfig", "sensing.clutter.discrete_fraction", self.sensing.clutter.discrete_fraction,
+                  "0 when the scenario has no clutter_points_m")
+
+    @property
+    def duration_s(self) -> float:
+        """Episode duration [s]."""
+        return self.n_scans * self.sensing.scan_period_s
+
+    @property
+    def radar_pairs(self) -> tuple[tuple[int, int], ...]:
+        """The formed (tx, rx) pairs in (tx, rx) order: ``pairs`` or every combination."""
+        if self.pairs:
+            return tuple(sorted(self.pairs))
+        return tuple((t, r) for t in range(len(self.transmitters)) for r in range(len(self.receivers)))
+
+
+# ------------------------------------------------------------------------------------------ dict / YAML round trip
+def to_dict(obj: Any) -> Any:
+    """Convert a config (or any nested value) to plain Python types; union-typed configs carry ``kind``."""
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        out: dict[str, Any] = {}
+        kind = getattr(type(obj), "kind", None)
+        if isinstance(kind, str):
+            out["kind"] = kind
+        for f in dataclasses.fields(obj):
+            out[f.name] = to_dict(getattr(obj, f.name))
+        return out
+    if isinstance(obj, tuple):
+        return [to_dict(v) for v in obj]
+    return obj
+
+
+def _kinds(args: tuple[Any, ...]) -> dict[str, type]:
+    return {a.kind: a for a in args if isinstance(getattr(a, "kind", None), str)}
+
+
+def _convert(tp: Any, value: Any, path: str) -> Any:
+    """Coerce plain data ``value`` into type ``tp`` (dataclass, union, tuple, scalar)."""
+    origin = get_origin(tp)
+    if tp is Any:
+        return value
+    if origin in (Union, types.UnionType):
+        args = get_args(tp)
+        if value is None and type(None) in args:
+            return None
+        if dataclasses.is_dataclass(value) and isinstance(value, tuple(a for a in args if isinstance(a, type))):
+            return value
+        kinds = _kinds(args)
+        if kinds:
+            if not isinstance(value, Mapping) or "kind" not in value:
+                raise ValueError(f"{path}: expected a mapping with 'kind' in {sorted(kinds)}, got {value!r}")
+            kind = value["kind"]
+            if kind not in kinds:
+                close = difflib.get_close_matches(str(kind), list(kinds), n=1)
+                hint = f" (did you mean {close[0]!r}?)" if close else ""
+                raise ValueError(f"{path}.kind = {kind!r}: must be one of {sorted(kinds)}{hint}")
+            return from_dict(kinds[kind], {k: v for k, v in value.items() if k != "kind"}, path)
+        non_none = [a for a in args if a is not type(None)]
+        return _convert(non_none[0], value, path)
+    if origin is Literal:
+        return value
+    if origin is tuple:
+        args = get_args(tp)
+        if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+            raise ValueError(f"{path} = {value!r}: expected a sequence")
+        seq = list(value)
+        if len(args) == 2 and args[1] is Ellipsis:
+            return tuple(_convert(args[0], v, f"{path}[{i}]") for i, v in enumerate(seq))
+        if len(seq) != len(args):
+            raise ValueError(f"{path} = {value!r}: expected {len(args)} items")
+        return tuple(_convert(a, v, f"{path}[{i}]") for i, (a, v) in enumerate(zip(args, seq, strict=True)))
+    if isinstance(tp, type) and dataclasses.is_dataclass(tp):
+        if isinstance(value, tp):
+            return value
+        if not isinstance(value, Mapping):
+            raise ValueError(f"{path} = {value!r}: expected a mapping for {tp.__name__}")
+        return from_dict(tp, value, path)
+    if tp is float and isinstance(value, (int, float)) and not isinstance(value, bool):
+        return float(value)
+    if tp is int and isinstance(value, float) and value.is_integer():
+        return int(value)
+    return value
+
+
+def from_dict(cls: type, data: Mapping[str, Any], path: str = "") -> Any:
+    """Build config ``cls`` from plain data (the inverse of :func:`to_dict`); unknown keys raise ``KeyError``."""
+    hints = typing.get_type_hints(cls)
+    names = [f.name for f in dataclasses.fields(cls)]
+    where = path or cls.__name__
+    unknown = [k for k in data if k not in names and k != "kind"]
+    if unknown:
+        close = difflib.get_close_matches(unknown[0], names, n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise KeyError(f"{where}: unknown field {unknown[0]!r}{hint}; allowed: {names}")
+    kwargs = {k: _convert(hints[k], v, f"{where}.{k}") for k, v in data.items() if k != "kind"}
+    return cls(**kwargs)
+
+
+def save_yaml(cfg: ScenarioConfig, path: str | Path) -> None:
+    """Write a scenario to YAML."""
+    Path(path).write_text(yaml.safe_dump(to_dict(cfg), sort_keys=False))
+
+
+def load_yaml(path: str | Path) -> ScenarioConfig:
+    """Read a scenario from YAML (validated on construction)."""
+    data = yaml.safe_load(Path(path).read_text())
+    return from_dict(ScenarioConfig, data)
+
+
+# ------------------------------------------------------------------------------------------------------ overrides
+def _replace_path(obj: Any, keys: list[str], value: Any, where: str) -> Any:
+    key, rest = keys[0], keys[1:]
+    here = f"{where}.{key}" if where else key
+    if isinstance(obj, tuple):
+        if not key.lstrip("-").isdigit() or not -len(obj) <= int(key) < len(obj):
+            raise KeyError(f"{here}: index {key!r} out of range for a tuple of {len(obj)} items")
+        i = int(key) % len(obj)
+        if not rest:
+            item_type = type(obj[i]) if dataclasses.is_dataclass(obj[i]) else Any
+            new_item = _convert(item_type, value, here) if item_type is not Any else value
+        else:
+            new_item = _replace_path(obj[i], rest, value, here)
+        return (*obj[:i], new_item, *obj[i + 1 :])
+    if not dataclasses.is_dataclass(obj):
+        raise KeyError(f"{here}: {where or 'config'} is not a config and has no field {key!r}")
+    names = [f.name for f in dataclasses.fields(obj)]
+    if key not in names:
+        close = difflib.get_close_matches(key, names, n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise KeyError(f"{here}: unknown field {key!r} of {type(obj).__name__}{hint}; allowed: {names}")
+    current = getattr(obj, key)
+    if rest:
+        new = _replace_path(current, rest, value, here)
+    elif isinstance(value, Mapping) and dataclasses.is_dataclass(current) and not isinstance(current, type):
+        new = current
+        for k, v in value.items():
+            new = _replace_path(new, [k], v, here)
+    else:
+        new = _convert(typing.get_type_hints(type(obj))[key], value, here)
+    return dataclasses.replace(obj, **{key: new})
+
+
+def apply_overrides(cfg: Any, overrides: Mapping[str, Any]) -> Any:
+    """Return ``cfg`` with dotted-path overrides applied and re-validated.
+
+    Example: ``apply_overrides(cfg, {"sensing.clutter.density_per_m2": 0.0, "receivers.1.noise_figure_db": 6})``.
+    A value that is a mapping updates a nested config field by field.
+    """
+    for dotted, value in overrides.items():
+        cfg = _replace_path(cfg, dotted.split("."), value, "")
+    return cfg
