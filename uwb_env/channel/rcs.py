@@ -14,7 +14,20 @@ import numpy as np
 from uwb_env.typing import FloatArray, IntArray
 
 
-def rcs_fluctuation(swerling: IntArray, shape: tuple[int, ...], rng: np.random.Generator) -> FloatArray:
-    """Unit-mean RCS factors of shape ``shape + (K,)`` for targets with Swerling cases ``swerling`` (K,)."""
+_WEIGHTS = {0: (1.0, 0.0, 0.0), 1: (0.0, 1.0, 0.0), 3: (0.0, 0.5, 0.5)}
+
+
+def swerling_weights(swerling: IntArray) -> FloatArray:
+    """``(3, K)`` weights (c, w1, w2) with factor = c + w1 e1 + w2 e2 for Swerling cases 0, 1, 3."""
+    return np.array([_WEIGHTS[int(s)] for s in swerling], dtype=float).T.reshape(3, -1)
+
+
+def rcs_fluctuation(swerling: IntArray, shape: tuple[int, ...], rng: np.random.Generator,
+                    weights: FloatArray | None = None) -> FloatArray:
+    """Unit-mean RCS factors of shape ``shape + (K,)`` for targets with Swerling cases ``swerling`` (K,).
+
+    ``weights`` (from :func:`swerling_weights`) may be passed precomputed.
+    """
+    w = swerling_weights(swerling) if weights is None else weights
     e = rng.standard_exponential((2, *shape, swerling.shape[0]))
-    return np.where(swerling == 0, 1.0, np.where(swerling == 1, e[0], 0.5 * (e[0] + e[1])))
+    return w[0] + w[1] * e[0] + w[2] * e[1]

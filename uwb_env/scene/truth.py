@@ -8,6 +8,7 @@ Scan ``k`` (k = 0 .. n_scans) is at time ``t_k = k * scan_period_s``; k = 0 is t
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -48,11 +49,21 @@ class Truth:
         return int(self.states.shape[1])
 
 
+@lru_cache(maxsize=64)
+def _segmented_cached(traj: SegmentedTrajectoryConfig, birth_s: float, n: int,
+                      dt: float) -> tuple[FloatArray, BoolArray]:
+    """Deterministic paths do not change between episodes: evaluate once per (path, birth, grid)."""
+    states, valid = segmented_states(traj, np.arange(n) * dt - birth_s)
+    states.flags.writeable = False
+    valid.flags.writeable = False
+    return states, valid
+
+
 def _target_states(target: TargetConfig, local_t: FloatArray, dt: float, layout: SceneLayout,
                    rng: np.random.Generator) -> tuple[FloatArray, BoolArray]:
     traj = target.trajectory
     if isinstance(traj, SegmentedTrajectoryConfig):
-        return segmented_states(traj, local_t)
+        return _segmented_cached(traj, target.birth_time_s, local_t.size, dt)
     if isinstance(traj, MotionModelTrajectoryConfig):
         return motion_model_states(traj, local_t, dt, rng)
     if isinstance(traj, RoomWalkTrajectoryConfig):

@@ -1,6 +1,6 @@
 """Sensing: truth + scan plan -> per-pair detections (parametric fidelity; the signal fidelity comes later)."""
 
-from uwb_env.sensing.parametric import EpisodeGeometry, ParametricSensor, azimuth_variance
+from uwb_env.sensing.parametric import EpisodeGeometry, EpisodeSensing, ParametricSensor, azimuth_variance
 from uwb_env.sensing.pd import (
     detection_probability,
     pd_swerling0,
@@ -11,6 +11,7 @@ from uwb_env.sensing.pd import (
 from uwb_env.sensing.records import Detections, ScanPlan
 
 __all__ = [
+    "EpisodeSensing",
     "Detections",
     "EpisodeGeometry",
     "ParametricSensor",

@@ -18,9 +18,11 @@ For every transmitter-receiver pair and target in a scan:
 A target is not detected by a pair when it is not alive, beyond ``max_range_m`` from either node, inside the blind
 zone (seed 000 section IV-G), hidden by an opaque wall, or outside the array's field of view.
 
-Randomness and common random numbers: per scan the rcs, noise and clutter streams are consumed in blocks whose
-size does not depend on the plan (every pair is drawn, inactive ones are discarded), so two plans on the same seed
-see the same RCS, noise and clutter realisations, and the truth is never touched.
+Randomness and common random numbers: at the start of an episode (:meth:`ParametricSensor.new_episode`) the RCS,
+noise and clutter streams draw, for every scan and every formed pair, everything a scan can need -- RCS factors,
+detection and measurement noise, and the gated false alarms. Nothing drawn depends on the plan, so two plans (two
+schedulers) on the same seed see the same RCS, noise and clutter realisations, and the truth is never touched; a
+scan (:meth:`ParametricSensor.sense`) then only applies the plan, which is what makes it cheap.
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ import numpy as np
 
 from uwb_env.channel.coverage import blind_zone, in_field_of_view
 from uwb_env.channel.radar_equation import bistatic_radar_constant, leg_lengths
-from uwb_env.channel.rcs import rcs_fluctuation
+from uwb_env.channel.rcs import rcs_fluctuation, swerling_weights
 from uwb_env.channel.walls import pair_obstruction
 from uwb_env.config import ScenarioConfig
 from uwb_env.constants import SPEED_OF_LIGHT_MPS
@@ -69,6 +71,34 @@ class EpisodeGeometry:
     covered: BoolArray
 
 
+@dataclass(frozen=True, slots=True)
+class EpisodeSensing:
+    """Geometry and pre-drawn randomness of one episode (see the module docstring).
+
+    Attributes:
+        geometry: the truth-dependent geometry.
+        fading_snr: ``(S, T, R, K)`` unit_snr x RCS factor (0 where not covered): SNR per unit radar constant.
+        det_offset, det_level: ``(S, T, R, K)`` the square-law test |sqrt(SNR) + n|^2 > V_T with n = a + j b
+            rewritten as |sqrt(SNR) + a| > sqrt(V_T - b^2): det_offset = a, det_level = sqrt(max(V_T - b^2, 0))
+            (-1 where noise alone crosses, +inf where the target is not covered).
+        noise: ``(S, 1 + m, T, R, K)`` standard normals: azimuth (1), measurement (m).
+        clutter_rows: ``(N, 4 + m)`` the false alarms that fall in their pair's gate, sorted by scan then pair,
+            in the row layout of :meth:`ParametricSensor.sense`: [pair key, measurement (m), azimuth, SNR,
+            origin = -1]; the SNR is the apparent one of noise over the threshold.
+        clutter_rx: ``(N,)`` their receiver index.
+        clutter_start: ``(S + 1,)`` offsets of each scan's false alarms.
+    """
+
+    geometry: EpisodeGeometry
+    fading_snr: FloatArray
+    det_offset: FloatArray
+    det_level: FloatArray
+    noise: FloatArray
+    clutter_rows: FloatArray
+    clutter_rx: np.ndarray
+    clutter_start: np.ndarray
+
+
 def azimuth_variance(snr_total: FloatArray, n_elements: FloatArray, spacing_m: FloatArray,
                      wavelength_m: float, off_boresight_rad: FloatArray) -> FloatArray:
     r"""ULA direction-of-arrival CRLB [rad^2] for one source, deterministic signal.
@@ -94,6 +124,7 @@ class ParametricSensor:
         self.threshold = threshold_from_pfa(cfg.sensing.false_alarm_probability)
         self.swerling = np.array([t.swerling for t in cfg.targets], dtype=np.int64)
         self.rcs_mean = np.array([t.rcs_mean_m2 for t in cfg.targets])
+        self._swerling_w = swerling_weights(self.swerling)
         # Radar constant per (waveform, tx, rx): the energy and spectrum of the waveform, the nodes' gains.
         self.radar_constant = np.array([[[
             bistatic_radar_constant(
@@ -109,6 +140,25 @@ class ParametricSensor:
         self._doa_rx = lay.rx_has_array & self.use_doa
         self._names = {r: tuple(names + (["azimuth"] if self._doa_rx[r] else [])) for r in range(self.n_rx)}
         self._clutter_mean, self.gate_volume = self._clutter_statistics()
+        # Per-scan constants, precomputed for the hot path.
+        self._pair_list = [tuple(p) for p in self.pairs.tolist()]
+        self._pair_keys = np.array([t * self.n_rx + r for t, r in self._pair_list], dtype=np.int64)
+        self._gate_volume = [float(self.gate_volume[t, r]) for t, r in self._pair_list]
+        self._clutter_density = [float(self._clutter_mean[t, r] / self.gate_volume[t, r]) for t, r in self._pair_list]
+        self._any_array = bool(lay.rx_has_array.any())
+        self._any_doa = bool(self._doa_rx.any())
+        self._boresight = np.nan_to_num(lay.rx_boresight_rad)
+        self._fov = np.where(lay.rx_has_array, np.nan_to_num(lay.rx_fov_rad), np.inf)
+        self._wavelength = np.array([w.wavelength_m for w in self.library.waveforms])
+        self._tx_index = np.arange(self.n_tx)
+        area = (lay.area[1] - lay.area[0]) * (lay.area[3] - lay.area[2])
+        self._clutter_total = cfg.sensing.clutter.density_per_m2 * area
+        self._unit_cov = [w.unit_covariance for w in self.library.waveforms]
+        self._geometry_cache: tuple[FloatArray, BoolArray, EpisodeGeometry] | None = None
+        self._valid_plans: dict[int, tuple[ScanPlan, tuple[FloatArray, bool, int, bool]]] = {}
+        self._boresight_unit = np.column_stack([np.cos(self._boresight), np.sin(self._boresight)])
+        self._cos_fov = np.cos(np.minimum(self._fov, math.pi))
+        self._unit_chol = [None if c is None else np.linalg.cholesky(c) for c in self._unit_cov]
 
     # ------------------------------------------------------------------------------------------------ geometry
     def episode_geometry(self, truth: Truth) -> EpisodeGeometry:
@@ -152,10 +202,23 @@ class ParametricSensor:
             covered=per_scan(covered),
         )
 
+    def _cached_geometry(self, truth: Truth) -> EpisodeGeometry:
+        """Geometry of ``truth``, reused while the truth is unchanged (deterministic scenarios)."""
+        cached = self._geometry_cache
+        if (cached is not None and cached[0].shape == truth.states.shape and np.array_equal(cached[0], truth.states)
+                and np.array_equal(cached[1], truth.alive)):
+            return cached[2]
+        geom = self.episode_geometry(truth)
+        self._geometry_cache = (truth.states.copy(), truth.alive.copy(), geom)
+        return geom
+
     def mean_snr(self, geom: EpisodeGeometry, k: int, plan: ScanPlan) -> FloatArray:
         """``(T, R, K)`` mean SNR (at mean RCS) of scan ``k`` under ``plan`` (0 where not covered)."""
-        gamma = self.radar_constant[plan.waveform, np.arange(self.n_tx)]  # (T, R)
-        return np.where(geom.covered[k], gamma[..., None] * geom.unit_snr[k], 0.0)
+        return np.where(geom.covered[k], self._gamma(plan)[..., None] * geom.unit_snr[k], 0.0)
+
+    def _gamma(self, plan: ScanPlan) -> FloatArray:
+        """``(T, R)`` radar constants of the waveforms the plan sends."""
+        return self.radar_constant[plan.waveform, self._tx_index]
 
     # ------------------------------------------------------------------------------------------------- clutter
     def _clutter_statistics(self, cell_m: float = 1.0) -> tuple[FloatArray, FloatArray]:
@@ -186,113 +249,190 @@ class ParametricSensor:
         in_view, _, _ = in_field_of_view(lay.rx_pos, lay.rx_boresight_rad, lay.rx_fov_rad, pts)
         return ok & in_view[None] & self.pair_mask[..., None]
 
-    def _draw_clutter(self, rng: np.random.Generator) -> tuple[np.ndarray, FloatArray]:
-        """Poisson false-alarm positions for every formed pair: ``(pair index (N,) into self.pairs, positions)``."""
+    def _draw_clutter(self, n_scans: int, rng: np.random.Generator) -> tuple[np.ndarray, FloatArray, FloatArray,
+                                                                              FloatArray]:
+        """Poisson false alarms of every scan and formed pair.
+
+        Returns:
+            key ``(N,)`` = scan x P + pair (sorted), x and y ``(N,)`` [m], spare uniforms ``(2, N)`` (for the
+            apparent SNR and the range-rate).
+        """
         lay, cl = self.layout, self.cfg.sensing.clutter
-        n_pairs = self.pairs.shape[0]
         x0, x1, y0, y1 = lay.area
-        total = cl.density_per_m2 * (x1 - x0) * (y1 - y0)
-        counts = rng.poisson([(1.0 - cl.discrete_fraction) * total, cl.discrete_fraction * total], (n_pairs, 2))
-        n_u, n_d = counts[:, 0], counts[:, 1]
-        u = rng.random((int(n_u.sum()), 2))
-        pts_u = np.column_stack([x0 + u[:, 0] * (x1 - x0), y0 + u[:, 1] * (y1 - y0)])
-        n_dt = int(n_d.sum())
-        if n_dt:
-            which = rng.integers(0, lay.clutter_points.shape[0], n_dt)
-            pts_d = lay.clutter_points[which] + cl.discrete_spread_m * rng.standard_normal((n_dt, 2))
+        counts = rng.poisson(self._clutter_total, n_scans * self.pairs.shape[0])
+        u = rng.random((5, int(counts.sum())))
+        x = x0 + u[0] * (x1 - x0)
+        y = y0 + u[1] * (y1 - y0)
+        if cl.discrete_fraction > 0:
+            disc = np.flatnonzero(u[2] < cl.discrete_fraction)
+            # given u2 < f, u2 / f is uniform on [0, 1): reuse it to pick the scatterer
+            n_pts = lay.clutter_points.shape[0]
+            which = np.minimum((u[2, disc] * (n_pts / cl.discrete_fraction)).astype(np.int64), n_pts - 1)
+            spread = cl.discrete_spread_m * rng.standard_normal((2, disc.size))
+            x[disc] = lay.clutter_points[which, 0] + spread[0]
+            y[disc] = lay.clutter_points[which, 1] + spread[1]
+        return np.repeat(np.arange(counts.size), counts), x, y, u[3:]
+
+    def new_episode(self, truth: Truth, rngs: RngStreams) -> EpisodeSensing:
+        """Geometry and all plan-independent draws of an episode, from the rcs, noise and clutter streams."""
+        lay, sens = self.layout, self.cfg.sensing
+        geom = self._cached_geometry(truth)
+        S, T, R, K = geom.unit_snr.shape
+        m = self.library.measurement_dim
+        fluct = rcs_fluctuation(self.swerling, (S, T, R), rngs.rcs, self._swerling_w)
+        fading = np.where(geom.covered, geom.unit_snr * fluct, 0.0)
+        noise = rngs.noise.standard_normal((S, 3 + m, T, R, K))
+        level2 = self.threshold - 0.5 * noise[:, 1] ** 2
+        level = np.where(level2 >= 0, np.sqrt(np.maximum(level2, 0.0)), -1.0)
+
+        key, x, y, u = self._draw_clutter(S, rngs.clutter)
+        scan, pair = np.divmod(key, self.pairs.shape[0])
+        c_t, c_r = self.pairs[pair, 0], self.pairs[pair, 1]
+        if T == 1:
+            dxt, dyt = x - lay.tx_pos[0, 0], y - lay.tx_pos[0, 1]
         else:
-            pts_d = np.zeros((0, 2))
-        pair = np.concatenate([np.repeat(np.arange(n_pairs), n_u), np.repeat(np.arange(n_pairs), n_d)])
-        return pair, np.concatenate([pts_u, pts_d])
+            dxt, dyt = x - lay.tx_pos[c_t, 0], y - lay.tx_pos[c_t, 1]
+        dxr, dyr = x - lay.rx_pos[c_r, 0], y - lay.rx_pos[c_r, 1]
+        lt2 = dxt * dxt + dyt * dyt
+        lr2 = dxr * dxr + dyr * dyr
+        max2 = sens.max_range_m**2
+        ok = (lt2 <= max2) & (lr2 <= max2)
+        if self._any_array:  # field of view: d . b >= |d| cos(fov), b the boresight unit vector
+            b = self._boresight_unit[c_r]
+            ok &= dxr * b[:, 0] + dyr * b[:, 1] >= np.sqrt(lr2) * self._cos_fov[c_r]
+        c_range = np.sqrt(lt2) + np.sqrt(lr2)
+        ok &= c_range - self.baseline[c_t, c_r] >= sens.blind_zone_excess_m
+        idx = np.flatnonzero(ok)
+        rows = np.empty((idx.size, 4 + m))
+        rows[:, 0] = c_t[idx] * R + c_r[idx]
+        rows[:, 1] = c_range[idx]
+        if m == 2:
+            rows[:, 2] = (2.0 * u[1, idx] - 1.0) * sens.clutter.range_rate_max_mps
+        rows[:, 1 + m] = np.arctan2(dyr[idx], dxr[idx]) if self._any_doa else 0.0
+        rows[:, 2 + m] = self.threshold - np.log1p(-u[0, idx]) - 1.0  # V_T + Exp(1) minus the unit noise power
+        rows[:, 3 + m] = -1.0
+        return EpisodeSensing(
+            geometry=geom, fading_snr=fading, det_offset=_SQRT_HALF * noise[:, 0],
+            det_level=np.where(geom.covered, level, np.inf), noise=noise[:, 2:],
+            clutter_rows=rows, clutter_rx=c_r[idx], clutter_start=np.searchsorted(scan[idx], np.arange(S + 1)),
+        )
 
     # ----------------------------------------------------------------------------------------------------- scan
-    def sense(self, geom: EpisodeGeometry, k: int, plan: ScanPlan, rngs: RngStreams,
-              time_s: float = 0.0) -> tuple[Detections, ...]:
-        """Detections of every active pair in scan ``k`` (plan validated here), ordered by (tx, rx)."""
-        plan.validate(self.n_tx, self.n_rx, len(self.library))
-        T, R, K = self.n_tx, self.n_rx, self.swerling.shape[0]
-        lay, sens, cl = self.layout, self.cfg.sensing, self.cfg.sensing.clutter
+    def sense(self, episode: EpisodeSensing, k: int, plan: ScanPlan, time_s: float = 0.0) -> tuple[Detections, ...]:
+        """Detections of every active formed pair in scan ``k``, ordered by (tx, rx); the plan is validated here.
+
+        All detections of all pairs are rows of one array -- [pair key, measurement (m), azimuth, SNR, origin] --
+        sorted once by (pair, range) and split per pair at the end.
+        """
+        gamma, all_active, w0, single = self._validate(plan)
         m = self.library.measurement_dim
+        active = plan.active_rx
+        n = episode.noise[k]
+        geom = episode.geometry
 
-        # Targets: RCS, square-law detection, measurement noise (fixed-size draws: common random numbers).
-        snr = self.mean_snr(geom, k, plan) * rcs_fluctuation(self.swerling, (T, R), rngs.rcs)
-        n = rngs.noise.standard_normal((3 + m, T, R, K))
-        stat = (np.sqrt(snr) + n[0] * math.sqrt(0.5)) ** 2 + (n[1] * math.sqrt(0.5)) ** 2
-        detected = geom.covered[k] & (stat > self.threshold) & plan.active_rx[None, :, None]
+        # Targets: square-law detection at the scan's SNR (see EpisodeSensing.det_level), then noise.
+        snr = gamma * episode.fading_snr[k]
+        hit = np.abs(np.sqrt(snr) + episode.det_offset[k]) > episode.det_level[k]
+        t_i, r_i, k_i = np.nonzero(hit & active[None, :, None])
+        s_t = snr[t_i, r_i, k_i]
+        target_rows = np.empty((t_i.size, 4 + m))
+        target_rows[:, 0] = t_i * self.n_rx + r_i
+        target_rows[:, 1] = geom.bistatic_range[k, t_i, r_i, k_i]
+        if m == 2:
+            target_rows[:, 2] = geom.range_rate[k, t_i, r_i, k_i]
+        target_rows[:, 2 + m] = s_t
+        target_rows[:, 3 + m] = k_i
+        e = n[1:1 + m, t_i, r_i, k_i].T
+        if single:  # R = R1 / snr, so chol(R) = chol(R1) / sqrt(snr): no per-row factorisation
+            target_rows[:, 1:1 + m] += (e @ self._unit_chol[w0].T) / np.sqrt(s_t)[:, None]
+        else:
+            cov_t = self._covariances(plan.waveform[t_i], s_t)
+            target_rows[:, 1:1 + m] += np.einsum("nij,nj->ni", np.linalg.cholesky(cov_t), e)
+        if self._any_doa:
+            az = geom.azimuth[k, r_i, k_i]
+            sd = np.sqrt(self._azimuth_variance(plan, t_i, r_i, az, s_t))
+            target_rows[:, 1 + m] = _wrap(az + sd * n[0, t_i, r_i, k_i])
 
-        # Clutter for every pair, thinned to the pair's gate.
-        c_pair, c_pos = self._draw_clutter(rngs.clutter)
-        nc = c_pair.shape[0]
-        c_extra = rngs.clutter.random((2, nc))
-        c_tx, c_rx = self.pairs[c_pair, 0], self.pairs[c_pair, 1]
-        lt = np.linalg.norm(c_pos - lay.tx_pos[c_tx], axis=1)
-        dr = c_pos - lay.rx_pos[c_rx]
-        lr = np.linalg.norm(dr, axis=1)
-        c_range = lt + lr
-        c_ok = (lt <= sens.max_range_m) & (lr <= sens.max_range_m)
-        c_ok &= c_range - self.baseline[c_tx, c_rx] >= sens.blind_zone_excess_m
-        c_az = np.arctan2(dr[:, 1], dr[:, 0])
-        has_arr = lay.rx_has_array[c_rx]
-        c_off = np.angle(np.exp(1j * (c_az - lay.rx_boresight_rad[c_rx])))
-        c_ok &= ~has_arr | (np.abs(np.where(has_arr, c_off, 0.0)) <= np.nan_to_num(lay.rx_fov_rad[c_rx]))
-        c_ok &= plan.active_rx[c_rx]
-        c_snr = self.threshold - np.log1p(-c_extra[0]) - 1.0  # noise over threshold: V_T + Exp(1), minus noise
-        c_rdot = (2.0 * c_extra[1] - 1.0) * cl.range_rate_max_mps
-
+        # False alarms of this scan at the listening receivers, then one sort by (pair, range).
+        a, b = episode.clutter_start[k], episode.clutter_start[k + 1]
+        clutter_rows = episode.clutter_rows[a:b]
+        if not all_active:
+            clutter_rows = clutter_rows[active[episode.clutter_rx[a:b]]]
+        rows = np.concatenate([target_rows, clutter_rows])
+        rows = rows[np.argsort(rows[:, 0] * _KEY_SPAN + rows[:, 1])]  # by pair, then range (|range| << span)
+        snr_all = rows[:, 2 + m]
+        cov = self._unit_cov[w0][None] / snr_all[:, None, None] if single else self._covariances(
+            plan.waveform[rows[:, 0].astype(np.int64) // self.n_rx], snr_all)
+        bounds = np.searchsorted(rows[:, 0], self._pair_keys).tolist() + [rows.shape[0]]
+        origin = rows[:, 3 + m].astype(np.int64)
         out = []
-        for p, (t, r) in enumerate(self.pairs.tolist()):  # the formed pairs: a small fixed set
-            if plan.active_rx[r]:
-                w = int(plan.waveform[t])
-                out.append(self._pair_detections(t, r, w, self.library[w], geom, k, snr, detected, n,
-                                                 c_ok & (c_pair == p), c_range, c_rdot, c_az, c_snr, time_s, m))
+        for p, (t, r) in enumerate(self._pair_list):  # the formed pairs: a small fixed set
+            if not active[r]:
+                continue
+            lo, hi = bounds[p], bounds[p + 1]
+            if self._doa_rx[r]:
+                z = rows[lo:hi, 1:2 + m]
+                tt = np.full(hi - lo, t)
+                rr = np.full(hi - lo, r)
+                var = self._azimuth_variance(plan, tt, rr, z[:, m], snr_all[lo:hi])
+                R = _append_block(cov[lo:hi], var)
+            else:
+                z, R = rows[lo:hi, 1:1 + m], cov[lo:hi]
+            out.append(Detections(
+                tx=t, rx=r, waveform=int(plan.waveform[t]), time_s=time_s, z=z, R=R, snr=snr_all[lo:hi],
+                origin=origin[lo:hi], measurement_names=self._names[r], gate_volume=self._gate_volume[p],
+                clutter_density=self._clutter_density[p],
+            ))
         return tuple(out)
 
-    def _pair_detections(self, t: int, r: int, w: int, wf, geom: EpisodeGeometry, k: int, snr: FloatArray,
-                         detected: BoolArray, n: FloatArray, c_sel: BoolArray, c_range: FloatArray,
-                         c_rdot: FloatArray, c_az: FloatArray, c_snr: FloatArray, time_s: float,
-                         m: int) -> Detections:
+    def _covariances(self, waveform_of_row: np.ndarray, snr: FloatArray) -> FloatArray:
+        """``(n, m, m)`` covariances of rows sent with different waveforms (a small fixed set)."""
+        m = self.library.measurement_dim
+        cov = np.empty((snr.shape[0], m, m))
+        for w in set(waveform_of_row.tolist()):
+            sel = waveform_of_row == w
+            cov[sel] = self.library[w].covariance(snr[sel])
+        return cov
+
+    def _azimuth_variance(self, plan: ScanPlan, t: np.ndarray, r: np.ndarray, az: FloatArray,
+                          snr: FloatArray) -> FloatArray:
         lay = self.layout
-        idx = np.flatnonzero(detected[t, r])
-        s = snr[t, r, idx]
-        doa = bool(self._doa_rx[r])
-        # True detections: h(x) + chol(R) e.
-        h = [geom.bistatic_range[k, t, r, idx]]
-        if m == 2:
-            h.append(geom.range_rate[k, t, r, idx])
-        cov = wf.covariance(s)  # (n, m, m)
-        e = n[3:3 + m, t, r, idx].T  # (n, m)
-        z_t = np.column_stack(h) + np.einsum("nij,nj->ni", np.linalg.cholesky(cov), e)
-        # False detections.
-        c_idx = np.flatnonzero(c_sel)
-        cs = c_snr[c_idx]
-        z_c = c_range[c_idx][:, None] if m == 1 else np.column_stack([c_range[c_idx], c_rdot[c_idx]])
-        cov_c = wf.covariance(cs)
-        if doa:
-            args = (lay.rx_n_elements[r], lay.rx_spacing_m[r], wf.wavelength_m)
-            off_t = geom.off_boresight[k, r, idx]
-            var_t = azimuth_variance(s, *args, off_t)
-            az_t = np.angle(np.exp(1j * (geom.azimuth[k, r, idx] + np.sqrt(var_t) * n[2, t, r, idx])))
-            z_t = np.column_stack([z_t, az_t])
-            off_c = np.angle(np.exp(1j * (c_az[c_idx] - lay.rx_boresight_rad[r])))
-            var_c = azimuth_variance(cs, *args, off_c)
-            z_c = np.column_stack([z_c, c_az[c_idx]])
-            cov = _append_block(cov, var_t)
-            cov_c = _append_block(cov_c, var_c)
-        z = np.concatenate([z_t, z_c])
-        order = np.argsort(z[:, 0], kind="stable")
-        origin = np.concatenate([idx, np.full(c_idx.size, -1)]).astype(np.int64)
-        return Detections(
-            tx=t, rx=r, waveform=w, time_s=time_s,
-            z=z[order], R=np.concatenate([cov, cov_c])[order], snr=np.concatenate([s, cs])[order],
-            origin=origin[order], measurement_names=self._names[r],
-            gate_volume=float(self.gate_volume[t, r]),
-            clutter_density=float(self._clutter_mean[t, r] / self.gate_volume[t, r]),
-        )
+        return azimuth_variance(snr, lay.rx_n_elements[r], lay.rx_spacing_m[r],
+                                self._wavelength[plan.waveform[t]], _wrap(az - self._boresight[r]))
+
+    def _validate(self, plan: ScanPlan) -> tuple[FloatArray, bool, int, bool]:
+        """Validate a plan and derive what a scan needs from it, once.
+
+        Plans are immutable, so a validated plan is remembered by identity. Returns the radar constants
+        ``(T, R, 1)`` of the plan's waveforms, whether every receiver listens, the first waveform, and whether one
+        waveform with a 1/SNR covariance serves all transmitters.
+        """
+        hit = self._valid_plans.get(id(plan))
+        if hit is not None and hit[0] is plan:
+            return hit[1]
+        plan.validate(self.n_tx, self.n_rx, len(self.library))
+        waveforms = set(plan.waveform.tolist())
+        w0 = int(plan.waveform[0])
+        derived = (self.radar_constant[plan.waveform, self._tx_index][..., None], bool(plan.active_rx.all()), w0,
+                   len(waveforms) == 1 and self._unit_chol[w0] is not None)
+        if len(self._valid_plans) > 256:
+            self._valid_plans.clear()
+        self._valid_plans[id(plan)] = (plan, derived)
+        return derived
 
     @property
     def expected_clutter(self) -> FloatArray:
         """``(T, R)`` expected number of false detections per scan in each pair's gate."""
         return self._clutter_mean
+
+
+_SQRT_HALF = math.sqrt(0.5)
+_KEY_SPAN = 1e9  # composite sort key: pair key x span + range [m]
+
+
+def _wrap(angle: FloatArray) -> FloatArray:
+    """Wrap angles [rad] to [-pi, pi)."""
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def _append_block(cov: FloatArray, var: FloatArray) -> FloatArray:

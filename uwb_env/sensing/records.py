@@ -16,10 +16,18 @@ class ScanPlan:
     Attributes:
         waveform: ``(T,)`` waveform index per transmitter (into the scenario's library).
         active_rx: ``(R,)`` which receivers listen.
+
+    The arrays are copied and made read-only, so a plan cannot change after it has been validated.
     """
 
     waveform: IntArray
     active_rx: BoolArray
+
+    def __post_init__(self) -> None:
+        for name in ("waveform", "active_rx"):
+            arr = np.array(getattr(self, name))
+            arr.flags.writeable = False
+            object.__setattr__(self, name, arr)
 
     @classmethod
     def all_listening(cls, waveform: int, n_tx: int, n_rx: int) -> ScanPlan:
@@ -28,7 +36,13 @@ class ScanPlan:
 
     def validate(self, n_tx: int, n_rx: int, n_waveforms: int) -> None:
         """Raise ``ValueError`` naming the field and value unless the plan fits the scenario."""
-        w, a = np.asarray(self.waveform), np.asarray(self.active_rx)
+        w, a = self.waveform, self.active_rx
+        if (isinstance(w, np.ndarray) and isinstance(a, np.ndarray) and w.shape == (n_tx,) and a.shape == (n_rx,)
+                and w.dtype.kind in "iu" and a.dtype == np.bool_):
+            wl = w.tolist()
+            if min(wl) >= 0 and max(wl) < n_waveforms and True in a.tolist():
+                return  # fast path: the common valid plan
+        w, a = np.asarray(w), np.asarray(a)
         if w.shape != (n_tx,):
             raise ValueError(f"ScanPlan.waveform has shape {w.shape}: must be ({n_tx},), one index per transmitter")
         if not np.issubdtype(w.dtype, np.integer):
@@ -46,7 +60,7 @@ class ScanPlan:
             raise ValueError("ScanPlan.active_rx is all False: at least one receiver must listen")
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class Detections:
     """Detections of one transmitter-receiver pair in one scan (SPEC.md step 3).
 

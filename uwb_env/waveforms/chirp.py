@@ -137,6 +137,11 @@ class ChirpWaveform:
         """``(N, 2, 2)`` delay-Doppler Fisher information at E/N0 ``snr`` (N,)."""
         return gaussian_chirp_fim(self.config.pulse_duration_s, self.gamma, snr)
 
+    @property
+    def unit_covariance(self) -> FloatArray:
+        """``(2, 2)`` covariance at SNR = 1; the CRLB scales as 1 / SNR, so R(snr) = unit_covariance / snr."""
+        return self.covariance(np.ones(1))[0]
+
     def covariance(self, snr: FloatArray) -> FloatArray:
         """``(N, 2, 2)`` (range, range-rate) CRLB covariance at E/N0 ``snr`` (N,)."""
         return gaussian_chirp_range_rate_covariance(self.config.pulse_duration_s, self.gamma,

@@ -73,6 +73,13 @@ class ImpulseWaveform:
         """Transmitted energy per scan [J]: average power x frame time = P Ns / PRF."""
         return tx_power_w * self.dwell_time_s
 
+    @property
+    def unit_covariance(self) -> FloatArray | None:
+        """``(1, 1)`` covariance at SNR = 1 when R scales as 1 / SNR (the CRLB model), else None."""
+        if self.config.toa_error_model != "crlb":
+            return None
+        return self.covariance(np.ones(1))[0]
+
     def range_variance(self, snr: FloatArray) -> FloatArray:
         """``(N,)`` bistatic-range variance [m^2] at scan E/N0 ``snr`` (N,) for the configured ToA model."""
         snr = np.asarray(snr, dtype=float)

@@ -31,6 +31,9 @@ class Waveform(Protocol):
     @property
     def dwell_time_s(self) -> float: ...  # noqa: D102
 
+    @property
+    def unit_covariance(self) -> FloatArray | None: ...  # noqa: D102
+
     def scan_energy_j(self, tx_power_w: float) -> float: ...  # noqa: D102
 
     def covariance(self, snr: FloatArray) -> FloatArray: ...  # noqa: D102
