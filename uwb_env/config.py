@@ -717,12 +717,13 @@ def from_dict(cls: type, data: Mapping[str, Any], path: str = "") -> Any:
     hints = typing.get_type_hints(cls)
     names = [f.name for f in dataclasses.fields(cls)]
     where = path or cls.__name__
-    unknown = [k for k in data if k not in names and k != "kind"]
+    tag = "kind" if "kind" not in names else None  # the union tag, unless ``kind`` is a real field
+    unknown = [k for k in data if k not in names and k != tag]
     if unknown:
         close = difflib.get_close_matches(unknown[0], names, n=1)
         hint = f" (did you mean {close[0]!r}?)" if close else ""
         raise KeyError(f"{where}: unknown field {unknown[0]!r}{hint}; allowed: {names}")
-    kwargs = {k: _convert(hints[k], v, f"{where}.{k}") for k, v in data.items() if k != "kind"}
+    kwargs = {k: _convert(hints[k], v, f"{where}.{k}") for k, v in data.items() if k != tag}
     return cls(**kwargs)
 
 
