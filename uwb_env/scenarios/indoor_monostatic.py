@@ -1,7 +1,7 @@
 """``indoor-monostatic``: seed 002 (network of 10 monostatic UWB sensor radars indoors, with walls), section V.
 
 From the seed: 10 monostatic radars; random trajectories of 20 m at 1 m/s; PRF 5 MHz; transmitted PSD -42 dBm/MHz
-over [3.1, 4.8] GHz (so Pt = -9.7 dBm, fc = 3.95 GHz, B = 1.7 GHz); N0 = -200 dBW/Hz (a 4 dB noise figure at 290 K);
+over [3.1, 4.8] GHz (so Pt = -9.7 dBm, fc = 3.95 GHz, B = 1.7 GHz); N0 = -200 dBW/Hz (a 3.98 dB noise figure at 290 K);
 path-loss exponent 2, kappa = 0, d0 = 1 m; Swerling III RCS of mean 1 m^2; energy-detector ToA with T_int = 4 ns,
 T_a = 100 ns and N_pulse = 128 (32 and 512 compared); scan period 0.2 s; walls with obstruction loss and the
 excess-delay bias of section II-D.
@@ -89,7 +89,7 @@ def indoor_monostatic() -> ScenarioConfig:
         world=Box(-0.5, 20.5, -0.5, 12.5),
         surveillance_area=Box(0.0, 20.0, 0.0, 12.0),
         transmitters=tuple(TransmitterConfig(f"radar{i}", p, power_dbm=-9.7) for i, p in enumerate(RADARS)),
-        receivers=tuple(ReceiverConfig(f"radar{i}", p, noise_figure_db=4.0) for i, p in enumerate(RADARS)),
+        receivers=tuple(ReceiverConfig(f"radar{i}", p, noise_figure_db=3.98) for i, p in enumerate(RADARS)),
         pairs=tuple((i, i) for i in range(len(RADARS))),
         waveforms=waveforms,
         targets=(TargetConfig("person", walk, rcs_mean_m2=1.0, swerling=3),),

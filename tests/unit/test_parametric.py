@@ -1,0 +1,227 @@
+"""Parametric sensing: Monte Carlo statistics against Pd and R, Poisson clutter, determinism, CRN, errors."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from tests.conftest import tiny_config
+from uwb_env import scenarios
+from uwb_env.config import MaterialConfig, UniformLinearArrayConfig, WallConfig
+from uwb_env.rng import RngStreams
+from uwb_env.scene import sample_truth
+from uwb_env.sensing import ParametricSensor, ScanPlan, detection_probability
+
+
+def run(cfg, seed, plans, scans=None):
+    """Sense every scan; returns (sensor, episode, list of per-scan detection tuples)."""
+    sensor = ParametricSensor(cfg)
+    rngs = RngStreams.from_seed(seed)
+    truth = sample_truth(cfg, rngs.truth, sensor.layout)
+    ep = sensor.new_episode(truth, rngs)
+    scans = range(1, cfg.n_scans + 1) if scans is None else scans
+    return sensor, ep, [sensor.sense(ep, k, plans[k % len(plans)], k * 0.1) for k in scans]
+
+
+@pytest.mark.parametrize(("swerling", "power_dbm"), [(0, 14.0), (1, 18.0), (3, 16.0), (1, 10.0)])
+def test_empirical_detection_rate_matches_pd(swerling, power_dbm):
+    """Detections of the target per pair over N scans vs sum of Pd(mean SNR); tolerance 4 binomial sigmas."""
+    cfg = tiny_config(n_scans=20000, swerling=swerling, power_dbm=power_dbm)
+    plan = ScanPlan.all_listening(0, 1, 2)
+    sensor, ep, out = run(cfg, 11, [plan])
+    for r in range(2):
+        hits = sum(int((d[r].origin == 0).sum()) for d in out)
+        p = np.array([detection_probability(sensor.mean_snr(ep.geometry, k, plan)[0, r, 0], 1e-3, swerling)
+                      for k in range(1, cfg.n_scans + 1)])
+        assert 0.1 < p.mean() < 0.97, "the check must be informative"
+        assert abs(hits - p.sum()) < 4 * math.sqrt((p * (1 - p)).sum())
+
+
+@pytest.mark.parametrize(("waveform", "arrays"), [
+    ("chirp", (None, None)),
+    ("impulse", (None, None)),
+    ("chirp", (UniformLinearArrayConfig(3, 0.0375, 45.0, 80.0), None)),
+])
+def test_measurement_errors_have_the_reported_covariance(waveform, arrays):
+    """Whitened residuals L^-1 (z - h) of a steady target must have identity covariance (4-sigma bounds)."""
+    cfg = tiny_config(n_scans=20000, swerling=0, power_dbm=25.0, waveform=waveform, arrays=arrays,
+                      measure_doa=True)
+    plan = ScanPlan.all_listening(1, 1, 2)
+    sensor, ep, out = run(cfg, 5, [plan])
+    g = ep.geometry
+    for r in range(2):
+        rows = [(k, d[r]) for k, d in zip(range(1, cfg.n_scans + 1), out, strict=True)]
+        res, covs = [], []
+        for k, det in rows:
+            i = np.flatnonzero(det.origin == 0)
+            if i.size:
+                h = [g.bistatic_range[k, 0, r, 0]]
+                if waveform == "chirp":
+                    h.append(g.range_rate[k, 0, r, 0])
+                if "azimuth" in det.measurement_names:
+                    h.append(g.azimuth[k, r, 0])
+                res.append(det.z[i[0]] - np.array(h))
+                covs.append(det.R[i[0]])
+        res, covs = np.array(res), np.array(covs)
+        n, m = res.shape
+        assert n > 15000 and m == (2 if waveform == "chirp" else 1) + (arrays[r] is not None)
+        # the reported R is the waveform's CRLB at the (steady) true SNR
+        snr = sensor.mean_snr(g, 1, plan)[0, r, 0]
+        np.testing.assert_allclose(covs[0][:2, :2] if waveform == "chirp" else covs[0][:1, :1],
+                                   sensor.library[1].covariance(np.array([snr]))[0], rtol=1e-3)
+        w = np.linalg.solve(np.linalg.cholesky(covs), res[..., None])[..., 0]
+        sample = w.T @ w / n
+        tol = 4 * math.sqrt(2.0 / n)
+        np.testing.assert_allclose(np.diag(sample), 1.0, atol=tol)
+        np.testing.assert_allclose(sample[~np.eye(m, dtype=bool)], 0.0, atol=4 * math.sqrt(1.0 / n))
+        np.testing.assert_allclose(w.mean(axis=0), 0.0, atol=4 * math.sqrt(1.0 / n))
+
+
+def test_clutter_counts_are_poisson_with_the_density_times_area():
+    """Whole area inside the gate: mean lambda A = 10 per pair and scan, dispersion index ~ chi2(N - 1)."""
+    cfg = tiny_config(n_scans=3000, clutter_density=1e-3)
+    sensor, ep, out = run(cfg, 3, [ScanPlan.all_listening(0, 1, 2)])
+    np.testing.assert_allclose(sensor.expected_clutter, 10.0, rtol=1e-12)
+    for r in range(2):
+        x = np.array([int((d[r].origin == -1).sum()) for d in out])
+        n = x.size
+        assert abs(x.mean() - 10.0) < 4 * math.sqrt(10.0 / n)
+        dispersion = ((x - x.mean()) ** 2).sum() / x.mean()
+        assert abs(dispersion - (n - 1)) < 4 * math.sqrt(2 * (n - 1))
+        assert out[0][r].clutter_density == pytest.approx(10.0 / out[0][r].gate_volume)
+
+
+def test_clutter_is_thinned_to_the_gate():
+    cfg = tiny_config(n_scans=3000, clutter_density=1e-3, max_range_m=60.0, blind_zone_excess_m=5.0)
+    sensor, ep, out = run(cfg, 4, [ScanPlan.all_listening(0, 1, 2)])
+    for r in range(2):
+        x = np.array([int((d[r].origin == -1).sum()) for d in out])
+        lam = sensor.expected_clutter[0, r]
+        assert 2.0 < lam < 9.0
+        # 1 m grid integration of the gate area: allow 1 % on top of the 4-sigma sampling bound
+        assert abs(x.mean() - lam) < 4 * math.sqrt(lam / x.size) + 0.01 * lam
+        z = np.concatenate([d[r].z[d[r].origin == -1, 0] for d in out])
+        assert z.min() >= 20.0 + 5.0 and z.max() <= 120.0  # baseline + blind zone .. 2 x max range
+
+
+def test_same_seed_same_detections_and_different_seed_differs():
+    cfg = scenarios.get("urban-intersection")
+    plans = [ScanPlan.all_listening(w, 1, 2) for w in range(4)]
+    _, _, a = run(cfg, 21, plans, range(1, 60))
+    _, _, b = run(cfg, 21, plans, range(1, 60))
+    _, _, c = run(cfg, 22, plans, range(1, 60))
+    for da, db in zip(a, b, strict=True):
+        for x, y in zip(da, db, strict=True):
+            np.testing.assert_array_equal(x.z, y.z)
+            np.testing.assert_array_equal(x.R, y.R)
+            np.testing.assert_array_equal(x.origin, y.origin)
+    assert any(not np.array_equal(x.z, y.z) for da, dc in zip(a, c, strict=True) for x, y in zip(da, dc, strict=True))
+
+
+def test_plans_share_truth_clutter_and_noise_common_random_numbers():
+    cfg = scenarios.get("urban-intersection")
+    sensor = ParametricSensor(cfg)
+    short, long_ = ScanPlan.all_listening(0, 1, 2), ScanPlan.all_listening(3, 1, 2)
+    one_rx = ScanPlan(np.array([0]), np.array([True, False]))
+    results = []
+    for plan in (short, long_, one_rx):
+        rngs = RngStreams.from_seed(9)
+        truth = sample_truth(cfg, rngs.truth, sensor.layout)
+        ep = sensor.new_episode(truth, rngs)
+        results.append((truth, [sensor.sense(ep, k, plan) for k in range(1, 141)]))
+    (t0, d0), (t1, d1), (t2, d2) = results
+    np.testing.assert_array_equal(t0.states, t1.states)
+    np.testing.assert_array_equal(t0.states, t2.states)
+    for a, b, c in zip(d0, d1, d2, strict=True):
+        # the false alarms are the same whatever the waveform or the other receivers do
+        np.testing.assert_array_equal(a[0].z[a[0].origin < 0, 0], b[0].z[b[0].origin < 0, 0])
+        np.testing.assert_array_equal(a[0].z[a[0].origin < 0], c[0].z[c[0].origin < 0])
+        assert len(c) == 1 and c[0].rx == 0
+
+
+def test_records_are_sorted_by_range_with_names_and_origin():
+    cfg = scenarios.get("urban-intersection")
+    _, _, out = run(cfg, 2, [ScanPlan.all_listening(0, 1, 2)], range(1, 40))
+    n_target = 0
+    for dets in out:
+        assert [(d.tx, d.rx) for d in dets] == [(0, 0), (0, 1)]
+        for d in dets:
+            assert np.all(np.diff(d.z[:, 0]) >= 0)
+            assert d.measurement_names == ("bistatic_range", "range_rate")
+            assert d.z.shape[1] == 2 and d.R.shape == (len(d), 2, 2) and d.snr.shape == (len(d),)
+            assert np.isfinite(d.z).all() and np.isfinite(d.R).all() and (d.snr > 0).all()
+            n_target += int((d.origin >= 0).sum())
+    assert n_target > 40
+
+
+def target_hits(cfg, rx):
+    _, _, out = run(cfg, 1, [ScanPlan.all_listening(0, 1, 2)])
+    return sum(int((dets[rx].origin >= 0).sum()) for dets in out)
+
+
+def test_blocked_out_of_range_and_blind_targets_are_never_detected():
+    wall = (WallConfig((30.0, -50.0), (30.0, 90.0), MaterialConfig("building", math.inf)),)
+    loud = {"n_scans": 300, "power_dbm": 60.0}
+    for rx in (0, 1):
+        assert target_hits(tiny_config(**loud, walls=wall), rx) == 0  # opaque wall between nodes and target
+        assert target_hits(tiny_config(**loud, max_range_m=50.0), rx) == 0  # legs of 72 m and 57-61 m
+        assert target_hits(tiny_config(**loud), rx) == 300  # the same target in the open: always seen
+    # (10, 0.5) lies 2.5 cm off rx1's baseline (blind) but 11.9 m of excess range from rx2's
+    blind = tiny_config(**loud, target_xy=(10.0, 0.5), blind_zone_excess_m=1.0)
+    assert target_hits(blind, 0) == 0
+    assert target_hits(blind, 1) == 300
+
+
+def test_lossy_wall_attenuates_both_legs_and_biases_range():
+    lossy = (WallConfig((30.0, -50.0), (30.0, 90.0), MaterialConfig("drywall", 3.0, 1e-9)),)
+    plan = ScanPlan.all_listening(0, 1, 2)
+    walled, ep_w, _ = run(tiny_config(n_scans=2, walls=lossy), 1, [plan])
+    free, ep_f, _ = run(tiny_config(n_scans=2), 1, [plan])
+    ratio = free.mean_snr(ep_f.geometry, 1, plan) / walled.mean_snr(ep_w.geometry, 1, plan)
+    np.testing.assert_allclose(ratio, 10 ** 0.6, rtol=1e-9)  # both legs cross the wall: 2 x 3 dB
+    # seed 002's excess delay: a positive bias of c x (delay per crossing) x 2 crossings
+    bias = ep_w.geometry.bistatic_range[1, 0, 0, 0] - ep_f.geometry.bistatic_range[1, 0, 0, 0]
+    assert bias == pytest.approx(2e-9 * 299_792_458.0, rel=1e-9)
+
+
+@pytest.mark.parametrize(("plan", "match"), [
+    (ScanPlan(np.array([4]), np.array([True, True])), r"ScanPlan.waveform\[0\] = 4: must be in \[0, 2\)"),
+    (ScanPlan(np.array([-1]), np.array([True, True])), r"ScanPlan.waveform\[0\] = -1"),
+    (ScanPlan(np.array([0, 1]), np.array([True, True])), r"ScanPlan.waveform has shape \(2,\): must be \(1,\)"),
+    (ScanPlan(np.array([0.5]), np.array([True, True])), r"must hold integers"),
+    (ScanPlan(np.array([0]), np.array([True, True, True])), r"ScanPlan.active_rx has shape \(3,\): must be \(2,\)"),
+    (ScanPlan(np.array([0]), np.array([1, 0])), r"ScanPlan.active_rx = .*: must be a boolean mask"),
+    (ScanPlan(np.array([0]), np.array([False, False])), r"at least one receiver must listen"),
+])
+def test_invalid_scan_plans_raise(plan, match):
+    cfg = tiny_config(n_scans=3)
+    sensor = ParametricSensor(cfg)
+    rngs = RngStreams.from_seed(0)
+    ep = sensor.new_episode(sample_truth(cfg, rngs.truth), rngs)
+    with pytest.raises(ValueError, match=match):
+        sensor.sense(ep, 1, plan)
+
+
+def test_plan_arrays_are_immutable():
+    plan = ScanPlan.all_listening(0, 1, 2)
+    with pytest.raises(ValueError, match="read-only"):
+        plan.waveform[0] = 3
+
+
+@pytest.mark.parametrize("name", scenarios.names())
+def test_every_scenario_senses_without_nan(name):
+    cfg = scenarios.get(name)
+    sensor = ParametricSensor(cfg)
+    plans = [ScanPlan.all_listening(w, sensor.n_tx, sensor.n_rx) for w in range(len(sensor.library))]
+    _, _, out = run(cfg, 0, plans)
+    n_target = 0
+    for dets in out:
+        for d in dets:
+            assert np.isfinite(d.z).all() and np.isfinite(d.R).all()
+            np.testing.assert_allclose(d.R, np.swapaxes(d.R, 1, 2))
+            if len(d):
+                assert (np.linalg.eigvalsh(d.R) > 0).all()
+            n_target += int((d.origin >= 0).sum())
+    assert n_target > 0.3 * cfg.n_scans
