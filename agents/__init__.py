@@ -1,0 +1,3 @@
+"""Schedulers (round-robin, fixed, random, lookahead, RL) arrive with the close-the-loop issue."""
+
+__all__: list[str] = []

@@ -41,8 +41,11 @@ def measure(name: str, n_episodes: int) -> dict[str, float]:
             t_sense += t2 - t1
             n_scans += cfg.n_scans
     return {
-        "targets": len(cfg.targets), "pairs": sensor.pairs.shape[0], "scans": n_scans,
-        "episode": n_scans / (t_reset + t_sense), "sense": n_scans / t_sense,
+        "targets": len(cfg.targets),
+        "pairs": sensor.pairs.shape[0],
+        "scans": n_scans,
+        "episode": n_scans / (t_reset + t_sense),
+        "sense": n_scans / t_sense,
         "reset_ms": 1e3 * t_reset / n_episodes,
     }
 
@@ -51,12 +54,16 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--episodes", type=int, default=100)
     args = ap.parse_args()
-    print(f"{'scenario':20s} {'targets':>7s} {'pairs':>5s} {'scans/s (episode)':>18s} {'scans/s (sense)':>16s} "
-          f"{'reset ms/episode':>17s}")
+    print(
+        f"{'scenario':20s} {'targets':>7s} {'pairs':>5s} {'scans/s (episode)':>18s} {'scans/s (sense)':>16s} "
+        f"{'reset ms/episode':>17s}"
+    )
     for name in scenarios.names():
         r = measure(name, args.episodes)
-        print(f"{name:20s} {r['targets']:7d} {r['pairs']:5d} {r['episode']:18.0f} {r['sense']:16.0f} "
-              f"{r['reset_ms']:17.2f}")
+        print(
+            f"{name:20s} {r['targets']:7d} {r['pairs']:5d} {r['episode']:18.0f} {r['sense']:16.0f} "
+            f"{r['reset_ms']:17.2f}"
+        )
 
 
 if __name__ == "__main__":

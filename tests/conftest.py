@@ -20,11 +20,22 @@ from uwb_env.config import (
 )
 
 
-def tiny_config(*, n_scans: int = 50, swerling: int = 1, waveform: str = "chirp", power_dbm: float = 30.0,
-                clutter_density: float = 0.0, target_xy: tuple[float, float] = (60.0, 40.0),
-                speed: float = 1e-4, max_range_m: float = 500.0, blind_zone_excess_m: float = 0.0,
-                pfa: float = 1e-3, walls: tuple = (), arrays: tuple = (None, None),
-                measure_doa: bool = False) -> ScenarioConfig:
+def tiny_config(
+    *,
+    n_scans: int = 50,
+    swerling: int = 1,
+    waveform: str = "chirp",
+    power_dbm: float = 30.0,
+    clutter_density: float = 0.0,
+    target_xy: tuple[float, float] = (60.0, 40.0),
+    speed: float = 1e-4,
+    max_range_m: float = 500.0,
+    blind_zone_excess_m: float = 0.0,
+    pfa: float = 1e-3,
+    walls: tuple = (),
+    arrays: tuple = (None, None),
+    measure_doa: bool = False,
+) -> ScenarioConfig:
     """1 transmitter, 2 receivers, 1 (nearly static) target, 2 waveforms: the `tiny` scenario of STYLE.md B10."""
     if waveform == "chirp":
         waveforms = (
@@ -42,15 +53,22 @@ def tiny_config(*, n_scans: int = 50, swerling: int = 1, waveform: str = "chirp"
         world=Box(-100.0, 200.0, -100.0, 200.0),
         surveillance_area=Box(0.0, 100.0, 0.0, 100.0),
         transmitters=(TransmitterConfig("tx", (0.0, 0.0), power_dbm=power_dbm),),
-        receivers=(ReceiverConfig("rx1", (20.0, 0.0), array=arrays[0]),
-                   ReceiverConfig("rx2", (0.0, 20.0), array=arrays[1])),
+        receivers=(
+            ReceiverConfig("rx1", (20.0, 0.0), array=arrays[0]),
+            ReceiverConfig("rx2", (0.0, 20.0), array=arrays[1]),
+        ),
         waveforms=waveforms,
         targets=(TargetConfig("t", traj, rcs_mean_m2=1.0, swerling=swerling),),
         n_scans=n_scans,
         walls=walls,
-        sensing=SensingConfig(scan_period_s=0.1, false_alarm_probability=pfa, max_range_m=max_range_m,
-                              blind_zone_excess_m=blind_zone_excess_m, measure_doa=measure_doa,
-                              clutter=ClutterConfig(density_per_m2=clutter_density)),
+        sensing=SensingConfig(
+            scan_period_s=0.1,
+            false_alarm_probability=pfa,
+            max_range_m=max_range_m,
+            blind_zone_excess_m=blind_zone_excess_m,
+            measure_doa=measure_doa,
+            clutter=ClutterConfig(density_per_m2=clutter_density),
+        ),
     )
 
 

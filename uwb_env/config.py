@@ -441,8 +441,12 @@ class ChirpWaveformConfig:
             _fail("ChirpWaveformConfig", "bandwidth_hz", self.bandwidth_hz, f"< carrier_hz = {self.carrier_hz}")
         tb = self.bandwidth_hz * self.pulse_duration_s
         if tb > 1e5:
-            _fail("ChirpWaveformConfig", "bandwidth_hz", self.bandwidth_hz,
-                  f"such that bandwidth x pulse_duration <= 1e5 (got {tb:.3g})")
+            _fail(
+                "ChirpWaveformConfig",
+                "bandwidth_hz",
+                self.bandwidth_hz,
+                f"such that bandwidth x pulse_duration <= 1e5 (got {tb:.3g})",
+            )
         _choice("ChirpWaveformConfig", "sweep", self.sweep, ("up", "down"))
         _int_at_least("ChirpWaveformConfig", "n_pulses", self.n_pulses, 1)
         _positive("ChirpWaveformConfig", "pri_s", self.pri_s)
@@ -460,8 +464,12 @@ class EnergyDetectorToaConfig:
     def __post_init__(self) -> None:
         _in_range("EnergyDetectorToaConfig", "integration_time_s", self.integration_time_s, 1e-11, 1e-6)
         if not self.observation_window_s > self.integration_time_s:
-            _fail("EnergyDetectorToaConfig", "observation_window_s", self.observation_window_s,
-                  f"> integration_time_s = {self.integration_time_s}")
+            _fail(
+                "EnergyDetectorToaConfig",
+                "observation_window_s",
+                self.observation_window_s,
+                f"> integration_time_s = {self.integration_time_s}",
+            )
         _in_range("EnergyDetectorToaConfig", "observation_window_s", self.observation_window_s, 1e-10, 1e-4)
 
 
@@ -489,8 +497,12 @@ class ImpulseWaveformConfig:
         _positive("ImpulseWaveformConfig", "center_freq_hz", self.center_freq_hz)
         _positive("ImpulseWaveformConfig", "bandwidth_hz", self.bandwidth_hz)
         if self.bandwidth_hz >= 2 * self.center_freq_hz:
-            _fail("ImpulseWaveformConfig", "bandwidth_hz", self.bandwidth_hz,
-                  f"< 2 x center_freq_hz = {2 * self.center_freq_hz}")
+            _fail(
+                "ImpulseWaveformConfig",
+                "bandwidth_hz",
+                self.bandwidth_hz,
+                f"< 2 x center_freq_hz = {2 * self.center_freq_hz}",
+            )
         _int_at_least("ImpulseWaveformConfig", "n_pulses", self.n_pulses, 1)
         _in_range("ImpulseWaveformConfig", "prf_hz", self.prf_hz, 1.0, 1e9, closed="[]")
         _choice("ImpulseWaveformConfig", "toa_error_model", self.toa_error_model, ("crlb", "energy_detector"))
@@ -544,8 +556,12 @@ class TrackerConfig:
         for f in ("initial_existence", "confirm_existence", "terminate_existence"):
             _in_range("TrackerConfig", f, getattr(self, f), 0.0, 1.0, closed="()")
         if not self.terminate_existence < self.initial_existence < self.confirm_existence:
-            _fail("TrackerConfig", "initial_existence", self.initial_existence,
-                  "strictly between terminate_existence and confirm_existence")
+            _fail(
+                "TrackerConfig",
+                "initial_existence",
+                self.initial_existence,
+                "strictly between terminate_existence and confirm_existence",
+            )
         _positive("TrackerConfig", "max_speed_mps", self.max_speed_mps)
 
 
@@ -593,43 +609,75 @@ class ScenarioConfig:
         for group in ("transmitters", "receivers"):
             for i, node in enumerate(getattr(self, group)):
                 if not self.world.contains(node.position_m):
-                    _fail("ScenarioConfig", f"{group}[{i}] ({node.name!r}).position_m", node.position_m,
-                          f"inside the world {self.world}")
+                    _fail(
+                        "ScenarioConfig",
+                        f"{group}[{i}] ({node.name!r}).position_m",
+                        node.position_m,
+                        f"inside the world {self.world}",
+                    )
         for i, w in enumerate(self.waveforms):
             if not isinstance(w, _WAVEFORM_TYPES):
                 _fail("ScenarioConfig", f"waveforms[{i}]", w, "a ChirpWaveformConfig or ImpulseWaveformConfig")
         kinds = {type(w) for w in self.waveforms}
         if len(kinds) > 1:
-            _fail("ScenarioConfig", "waveforms", [w.name for w in self.waveforms],
-                  "all of one kind (chirp or impulse): the measurement space must not change with the action")
+            _fail(
+                "ScenarioConfig",
+                "waveforms",
+                [w.name for w in self.waveforms],
+                "all of one kind (chirp or impulse): the measurement space must not change with the action",
+            )
         _int_at_least("ScenarioConfig", "n_scans", self.n_scans, 1)
         duration = self.n_scans * self.sensing.scan_period_s
         for i, t in enumerate(self.targets):
             if t.birth_time_s >= duration:
-                _fail("ScenarioConfig", f"targets[{i}] ({t.name!r}).birth_time_s", t.birth_time_s,
-                      f"< episode duration n_scans x scan_period_s = {duration}")
+                _fail(
+                    "ScenarioConfig",
+                    f"targets[{i}] ({t.name!r}).birth_time_s",
+                    t.birth_time_s,
+                    f"< episode duration n_scans x scan_period_s = {duration}",
+                )
             start = getattr(t.trajectory, "start_position_m", None)
             if start is not None and not self.world.contains(start):
-                _fail("ScenarioConfig", f"targets[{i}] ({t.name!r}).trajectory.start_position_m", start,
-                      f"inside the world {self.world}")
+                _fail(
+                    "ScenarioConfig",
+                    f"targets[{i}] ({t.name!r}).trajectory.start_position_m",
+                    start,
+                    f"inside the world {self.world}",
+                )
             region = getattr(t.trajectory, "start_region", None)
             if region is not None and not self.world.contains_box(region):
-                _fail("ScenarioConfig", f"targets[{i}] ({t.name!r}).trajectory.start_region", region,
-                      f"inside the world {self.world}")
+                _fail(
+                    "ScenarioConfig",
+                    f"targets[{i}] ({t.name!r}).trajectory.start_region",
+                    region,
+                    f"inside the world {self.world}",
+                )
         for i, p in enumerate(self.clutter_points_m):
             _vec2("ScenarioConfig", f"clutter_points_m[{i}]", p)
         seen = set()
         for i, pair in enumerate(self.pairs):
-            if (not isinstance(pair, tuple) or len(pair) != 2
-                    or not 0 <= pair[0] < len(self.transmitters) or not 0 <= pair[1] < len(self.receivers)):
-                _fail("ScenarioConfig", f"pairs[{i}]", pair,
-                      f"(tx, rx) with 0 <= tx < {len(self.transmitters)} and 0 <= rx < {len(self.receivers)}")
+            if (
+                not isinstance(pair, tuple)
+                or len(pair) != 2
+                or not 0 <= pair[0] < len(self.transmitters)
+                or not 0 <= pair[1] < len(self.receivers)
+            ):
+                _fail(
+                    "ScenarioConfig",
+                    f"pairs[{i}]",
+                    pair,
+                    f"(tx, rx) with 0 <= tx < {len(self.transmitters)} and 0 <= rx < {len(self.receivers)}",
+                )
             if pair in seen:
                 _fail("ScenarioConfig", f"pairs[{i}]", pair, "listed once")
             seen.add(pair)
         if self.sensing.clutter.discrete_fraction > 0 and not self.clutter_points_m:
-            _fail("ScenarioConfig", "sensing.clutter.discrete_fraction", self.sensing.clutter.discrete_fraction,
-                  "0 when the scenario has no clutter_points_m")
+            _fail(
+                "ScenarioConfig",
+                "sensing.clutter.discrete_fraction",
+                self.sensing.clutter.discrete_fraction,
+                "0 when the scenario has no clutter_points_m",
+            )
 
     @property
     def duration_s(self) -> float:

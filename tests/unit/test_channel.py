@@ -28,7 +28,8 @@ from uwb_env.channel import (
     snr_on_iso_range,
 )
 from uwb_env.config import ChannelConfig
-from uwb_env.constants import BOLTZMANN_J_PER_K, SPEED_OF_LIGHT_MPS as C
+from uwb_env.constants import BOLTZMANN_J_PER_K
+from uwb_env.constants import SPEED_OF_LIGHT_MPS as C
 
 FREE = ChannelConfig()
 
@@ -53,9 +54,13 @@ def test_radar_constant_reduces_to_seed000_eq1_in_free_space():
     fc, beta, E, nf = 4.3e9, 0.5e9, 2e-9, 4.8
     gamma = bistatic_radar_constant(E, fc, beta, 3.0, 2.0, nf, 3, FREE)
     norm = integrate.quad(lambda f: math.exp(-0.5 * ((f - fc) / beta) ** 2), fc - 5 * beta, fc + 5 * beta)[0]
-    avg = integrate.quad(lambda f: math.exp(-0.5 * ((f - fc) / beta) ** 2) * (C / f) ** 2,
-                         fc - 5 * beta, fc + 5 * beta)[0] / norm
-    expected = E * 10 ** 0.5 * 3 * avg / ((4 * math.pi) ** 3 * noise_psd(nf))
+    avg = (
+        integrate.quad(lambda f: math.exp(-0.5 * ((f - fc) / beta) ** 2) * (C / f) ** 2, fc - 5 * beta, fc + 5 * beta)[
+            0
+        ]
+        / norm
+    )
+    expected = E * 10**0.5 * 3 * avg / ((4 * math.pi) ** 3 * noise_psd(nf))
     assert gamma == pytest.approx(expected, rel=1e-6)
 
 
@@ -103,16 +108,18 @@ def test_cassini_max_oval_is_the_snr_min_contour():
         p = np.column_stack([r * math.cos(ang), r * math.sin(ang)])
         lt, lr = leg_lengths(tx, rx, p)
         i = np.argmin(np.abs(lt[0] * lr[0] - prod))
-        snr = bistatic_snr(np.array([[gamma]]), np.ones(1), lt[:, i:i + 1], lr[:, i:i + 1], rho, 1.0)
+        snr = bistatic_snr(np.array([[gamma]]), np.ones(1), lt[:, i : i + 1], lr[:, i : i + 1], rho, 1.0)
         assert snr[0, 0, 0] == pytest.approx(snr_min, rel=1e-3)
     assert cassini_shape_ratio(np.array(1.0), np.array(2.0)) == pytest.approx(1.0)  # lemniscate
 
 
 @settings(max_examples=100, deadline=None)
-@given(pts=st.lists(st.floats(-1e3, 1e3), min_size=6, max_size=6), shift=st.tuples(st.floats(-1e4, 1e4),
-                                                                                    st.floats(-1e4, 1e4)))
+@given(
+    pts=st.lists(st.floats(-1e3, 1e3), min_size=6, max_size=6),
+    shift=st.tuples(st.floats(-1e4, 1e4), st.floats(-1e4, 1e4)),
+)
 def test_bistatic_range_triangle_inequality_and_translation_invariance(pts, shift):
-    tx, rx, p = (np.array([pts[i:i + 2]]) for i in (0, 2, 4))
+    tx, rx, p = (np.array([pts[i : i + 2]]) for i in (0, 2, 4))
     r = bistatic_range(tx, rx, p)[0, 0, 0]
     assert r >= np.linalg.norm(tx - rx) - 1e-9
     s = np.array([shift])
@@ -148,9 +155,12 @@ def test_walls_loss_and_delay_counted_per_leg_and_opaque_blocks():
 def test_blind_zone_and_field_of_view():
     r = np.array([[[10.2, 10.6, 30.0]]])
     np.testing.assert_array_equal(blind_zone(r, np.array([[10.0]]), 0.5), [[[True, False, False]]])
-    in_view, az, off = in_field_of_view(np.array([[0.0, 0.0], [0.0, 0.0]]), np.array([math.pi / 2, np.nan]),
-                                        np.array([math.radians(45), np.nan]),
-                                        np.array([[0.0, 5.0], [5.0, 4.0], [0.0, -5.0]]))
+    in_view, az, off = in_field_of_view(
+        np.array([[0.0, 0.0], [0.0, 0.0]]),
+        np.array([math.pi / 2, np.nan]),
+        np.array([math.radians(45), np.nan]),
+        np.array([[0.0, 5.0], [5.0, 4.0], [0.0, -5.0]]),
+    )
     np.testing.assert_array_equal(in_view, [[True, False, False], [True, True, True]])
     assert off[0, 0] == pytest.approx(0.0) and az[0, 1] == pytest.approx(math.atan2(4, 5))
 

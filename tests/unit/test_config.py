@@ -54,8 +54,9 @@ def test_registry_names_and_unknown_name_suggests():
 
 
 def test_dotted_and_nested_overrides_are_applied_and_revalidated():
-    cfg = scenarios.get("urban-intersection", **{"sensing.false_alarm_probability": 1e-5,
-                                                  "receivers.1.noise_figure_db": 7.0})
+    cfg = scenarios.get(
+        "urban-intersection", **{"sensing.false_alarm_probability": 1e-5, "receivers.1.noise_figure_db": 7.0}
+    )
     assert cfg.sensing.false_alarm_probability == 1e-5
     assert cfg.receivers[1].noise_figure_db == 7.0
     assert cfg.receivers[0].noise_figure_db == 5.0
@@ -94,10 +95,14 @@ CHIRP = {"name": "c", "pulse_duration_s": 1e-6, "bandwidth_hz": 40e6, "carrier_h
 @pytest.mark.parametrize(
     ("build", "match"),
     [
-        (lambda: ChirpWaveformConfig(**{**CHIRP, "bandwidth_hz": -40e6}),
-         r"ChirpWaveformConfig.bandwidth_hz = -40000000.0: must be > 0"),
-        (lambda: ChirpWaveformConfig(**{**CHIRP, "sweep": "upward"}),
-         r"ChirpWaveformConfig.sweep = 'upward': must be one of \('up', 'down'\)"),
+        (
+            lambda: ChirpWaveformConfig(**{**CHIRP, "bandwidth_hz": -40e6}),
+            r"ChirpWaveformConfig.bandwidth_hz = -40000000.0: must be > 0",
+        ),
+        (
+            lambda: ChirpWaveformConfig(**{**CHIRP, "sweep": "upward"}),
+            r"ChirpWaveformConfig.sweep = 'upward': must be one of \('up', 'down'\)",
+        ),
         (lambda: ChirpWaveformConfig(**{**CHIRP, "bandwidth_hz": 5e9}), r"bandwidth_hz = 5000000000.0: must be <"),
         (lambda: ChirpWaveformConfig(**{**CHIRP, "pri_s": 2e-6}), r"ChirpWaveformConfig.pri_s = 2e-06: must be >"),
         (lambda: ImpulseWaveformConfig("i", 4.3e9, 9e9), r"ImpulseWaveformConfig.bandwidth_hz = 9000000000.0"),

@@ -33,21 +33,27 @@ def test_empirical_detection_rate_matches_pd(swerling, power_dbm):
     sensor, ep, out = run(cfg, 11, [plan])
     for r in range(2):
         hits = sum(int((d[r].origin == 0).sum()) for d in out)
-        p = np.array([detection_probability(sensor.mean_snr(ep.geometry, k, plan)[0, r, 0], 1e-3, swerling)
-                      for k in range(1, cfg.n_scans + 1)])
+        p = np.array(
+            [
+                detection_probability(sensor.mean_snr(ep.geometry, k, plan)[0, r, 0], 1e-3, swerling)
+                for k in range(1, cfg.n_scans + 1)
+            ]
+        )
         assert 0.1 < p.mean() < 0.97, "the check must be informative"
         assert abs(hits - p.sum()) < 4 * math.sqrt((p * (1 - p)).sum())
 
 
-@pytest.mark.parametrize(("waveform", "arrays"), [
-    ("chirp", (None, None)),
-    ("impulse", (None, None)),
-    ("chirp", (UniformLinearArrayConfig(3, 0.0375, 45.0, 80.0), None)),
-])
+@pytest.mark.parametrize(
+    ("waveform", "arrays"),
+    [
+        ("chirp", (None, None)),
+        ("impulse", (None, None)),
+        ("chirp", (UniformLinearArrayConfig(3, 0.0375, 45.0, 80.0), None)),
+    ],
+)
 def test_measurement_errors_have_the_reported_covariance(waveform, arrays):
     """Whitened residuals L^-1 (z - h) of a steady target must have identity covariance (4-sigma bounds)."""
-    cfg = tiny_config(n_scans=20000, swerling=0, power_dbm=25.0, waveform=waveform, arrays=arrays,
-                      measure_doa=True)
+    cfg = tiny_config(n_scans=20000, swerling=0, power_dbm=25.0, waveform=waveform, arrays=arrays, measure_doa=True)
     plan = ScanPlan.all_listening(1, 1, 2)
     sensor, ep, out = run(cfg, 5, [plan])
     g = ep.geometry
@@ -69,8 +75,11 @@ def test_measurement_errors_have_the_reported_covariance(waveform, arrays):
         assert n > 15000 and m == (2 if waveform == "chirp" else 1) + (arrays[r] is not None)
         # the reported R is the waveform's CRLB at the (steady) true SNR
         snr = sensor.mean_snr(g, 1, plan)[0, r, 0]
-        np.testing.assert_allclose(covs[0][:2, :2] if waveform == "chirp" else covs[0][:1, :1],
-                                   sensor.library[1].covariance(np.array([snr]))[0], rtol=1e-3)
+        np.testing.assert_allclose(
+            covs[0][:2, :2] if waveform == "chirp" else covs[0][:1, :1],
+            sensor.library[1].covariance(np.array([snr]))[0],
+            rtol=1e-3,
+        )
         w = np.linalg.solve(np.linalg.cholesky(covs), res[..., None])[..., 0]
         sample = w.T @ w / n
         tol = 4 * math.sqrt(2.0 / n)
@@ -82,7 +91,7 @@ def test_measurement_errors_have_the_reported_covariance(waveform, arrays):
 def test_clutter_counts_are_poisson_with_the_density_times_area():
     """Whole area inside the gate: mean lambda A = 10 per pair and scan, dispersion index ~ chi2(N - 1)."""
     cfg = tiny_config(n_scans=3000, clutter_density=1e-3)
-    sensor, ep, out = run(cfg, 3, [ScanPlan.all_listening(0, 1, 2)])
+    sensor, _, out = run(cfg, 3, [ScanPlan.all_listening(0, 1, 2)])
     np.testing.assert_allclose(sensor.expected_clutter, 10.0, rtol=1e-12)
     for r in range(2):
         x = np.array([int((d[r].origin == -1).sum()) for d in out])
@@ -95,7 +104,7 @@ def test_clutter_counts_are_poisson_with_the_density_times_area():
 
 def test_clutter_is_thinned_to_the_gate():
     cfg = tiny_config(n_scans=3000, clutter_density=1e-3, max_range_m=60.0, blind_zone_excess_m=5.0)
-    sensor, ep, out = run(cfg, 4, [ScanPlan.all_listening(0, 1, 2)])
+    sensor, _, out = run(cfg, 4, [ScanPlan.all_listening(0, 1, 2)])
     for r in range(2):
         x = np.array([int((d[r].origin == -1).sum()) for d in out])
         lam = sensor.expected_clutter[0, r]
@@ -180,21 +189,24 @@ def test_lossy_wall_attenuates_both_legs_and_biases_range():
     walled, ep_w, _ = run(tiny_config(n_scans=2, walls=lossy), 1, [plan])
     free, ep_f, _ = run(tiny_config(n_scans=2), 1, [plan])
     ratio = free.mean_snr(ep_f.geometry, 1, plan) / walled.mean_snr(ep_w.geometry, 1, plan)
-    np.testing.assert_allclose(ratio, 10 ** 0.6, rtol=1e-9)  # both legs cross the wall: 2 x 3 dB
+    np.testing.assert_allclose(ratio, 10**0.6, rtol=1e-9)  # both legs cross the wall: 2 x 3 dB
     # seed 002's excess delay: a positive bias of c x (delay per crossing) x 2 crossings
     bias = ep_w.geometry.bistatic_range[1, 0, 0, 0] - ep_f.geometry.bistatic_range[1, 0, 0, 0]
     assert bias == pytest.approx(2e-9 * 299_792_458.0, rel=1e-9)
 
 
-@pytest.mark.parametrize(("plan", "match"), [
-    (ScanPlan(np.array([4]), np.array([True, True])), r"ScanPlan.waveform\[0\] = 4: must be in \[0, 2\)"),
-    (ScanPlan(np.array([-1]), np.array([True, True])), r"ScanPlan.waveform\[0\] = -1"),
-    (ScanPlan(np.array([0, 1]), np.array([True, True])), r"ScanPlan.waveform has shape \(2,\): must be \(1,\)"),
-    (ScanPlan(np.array([0.5]), np.array([True, True])), r"must hold integers"),
-    (ScanPlan(np.array([0]), np.array([True, True, True])), r"ScanPlan.active_rx has shape \(3,\): must be \(2,\)"),
-    (ScanPlan(np.array([0]), np.array([1, 0])), r"ScanPlan.active_rx = .*: must be a boolean mask"),
-    (ScanPlan(np.array([0]), np.array([False, False])), r"at least one receiver must listen"),
-])
+@pytest.mark.parametrize(
+    ("plan", "match"),
+    [
+        (ScanPlan(np.array([4]), np.array([True, True])), r"ScanPlan.waveform\[0\] = 4: must be in \[0, 2\)"),
+        (ScanPlan(np.array([-1]), np.array([True, True])), r"ScanPlan.waveform\[0\] = -1"),
+        (ScanPlan(np.array([0, 1]), np.array([True, True])), r"ScanPlan.waveform has shape \(2,\): must be \(1,\)"),
+        (ScanPlan(np.array([0.5]), np.array([True, True])), r"must hold integers"),
+        (ScanPlan(np.array([0]), np.array([True, True, True])), r"ScanPlan.active_rx has shape \(3,\): must be \(2,\)"),
+        (ScanPlan(np.array([0]), np.array([1, 0])), r"ScanPlan.active_rx = .*: must be a boolean mask"),
+        (ScanPlan(np.array([0]), np.array([False, False])), r"at least one receiver must listen"),
+    ],
+)
 def test_invalid_scan_plans_raise(plan, match):
     cfg = tiny_config(n_scans=3)
     sensor = ParametricSensor(cfg)

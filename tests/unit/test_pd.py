@@ -25,7 +25,7 @@ def test_fluctuating_pd_equals_marcum_averaged_over_the_rcs(snr_db, pfa):
 
 def test_albersheim_reference_point():
     """Albersheim (n = 1): Pd = 0.9, Pfa = 1e-6 needs 13.1 dB for a steady target (accurate to ~0.2 dB)."""
-    assert 0.87 < pd_swerling0(10 ** 1.31, 1e-6) < 0.93
+    assert 0.87 < pd_swerling0(10**1.31, 1e-6) < 0.93
 
 
 @pytest.mark.parametrize("case", [0, 1, 3])
@@ -36,8 +36,13 @@ def test_pd_at_zero_snr_is_pfa_and_unknown_case_raises(case):
 
 
 @settings(max_examples=100, deadline=None)
-@given(s1=st.floats(0, 1e4), s2=st.floats(0, 1e4), p1=st.floats(1e-9, 0.1), p2=st.floats(1e-9, 0.1),
-       case=st.sampled_from([0, 1, 3]))
+@given(
+    s1=st.floats(0, 1e4),
+    s2=st.floats(0, 1e4),
+    p1=st.floats(1e-9, 0.1),
+    p2=st.floats(1e-9, 0.1),
+    case=st.sampled_from([0, 1, 3]),
+)
 def test_pd_is_monotone_in_snr_and_pfa(s1, s2, p1, p2, case):
     lo, hi = sorted((s1, s2))
     assert detection_probability(lo, p1, case) <= detection_probability(hi, p1, case) + 1e-12

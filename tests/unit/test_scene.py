@@ -11,6 +11,7 @@ from scipy.linalg import expm
 from uwb_env import scenarios
 from uwb_env.config import MotionModelTrajectoryConfig, MotionSegmentConfig, SegmentedTrajectoryConfig
 from uwb_env.rng import RngStreams
+from uwb_env.scenarios.urban_intersection import seed003_path
 from uwb_env.scene import (
     SceneLayout,
     ct_transition,
@@ -21,7 +22,6 @@ from uwb_env.scene import (
     segments_cross,
 )
 from uwb_env.scene.trajectories import motion_model_states, room_walk_polyline, segmented_states
-from uwb_env.scenarios.urban_intersection import seed003_path
 
 
 def test_seed003_path_starts_and_ends_at_the_seeds_points():
@@ -52,10 +52,14 @@ def test_seed003_path_kinematics_by_hand():
 
 
 def test_segment_speed_continuity_and_turn_geometry():
-    path = SegmentedTrajectoryConfig((0.0, 0.0), (3.0, 4.0), (
-        MotionSegmentConfig("ca", 2.0, acceleration_mps2=0.5),
-        MotionSegmentConfig("ct", math.pi, turn_rate_rps=-0.5),
-    ))
+    path = SegmentedTrajectoryConfig(
+        (0.0, 0.0),
+        (3.0, 4.0),
+        (
+            MotionSegmentConfig("ca", 2.0, acceleration_mps2=0.5),
+            MotionSegmentConfig("ct", math.pi, turn_rate_rps=-0.5),
+        ),
+    )
     t = np.linspace(0, path.duration_s, 2001)
     s, _ = segmented_states(path, t)
     speed = np.hypot(s[:, 1], s[:, 3])
@@ -82,7 +86,7 @@ def test_urban_truth_has_births_and_deaths():
     t = truth.times_s
     # second target is born 10 s later on the same path
     np.testing.assert_array_equal(truth.alive[:, 1], (t >= 10.0) & (t - 10.0 <= seed003_path().duration_s))
-    k = int(round(12.0 / 0.25))
+    k = round(12.0 / 0.25)
     np.testing.assert_allclose(truth.states[k, 1], truth.states[k - 40, 0], atol=1e-9)
     assert not truth.alive[-1, 0] and truth.alive[-1, 1]
 

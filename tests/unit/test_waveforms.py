@@ -97,8 +97,7 @@ def test_correlation_sign_up_negative_down_positive():
 
 def test_range_variance_grows_with_kappa():
     kappas = [0.25e-6, 0.5e-6, 1.375e-6, 3e-6]
-    var = [ChirpWaveform(ChirpWaveformConfig("c", k, 40e6, 4e9)).covariance(np.array([50.0]))[0, 0, 0]
-           for k in kappas]
+    var = [ChirpWaveform(ChirpWaveformConfig("c", k, 40e6, 4e9)).covariance(np.array([50.0]))[0, 0, 0] for k in kappas]
     assert np.all(np.diff(var) > 0)
     np.testing.assert_allclose(var, C**2 * np.array(kappas) ** 2 / 50.0, rtol=1e-12)
 

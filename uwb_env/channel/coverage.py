@@ -16,7 +16,7 @@ def max_range_product(gamma: FloatArray, rcs_m2: float, snr_min: float, rho: flo
 
 
 def cassini_shape_ratio(range_product_m2: FloatArray, baseline_m: FloatArray) -> FloatArray:
-    """b / a = sqrt(l_t l_r) / (l / 2) (seed 000 eq. 5): < 1 two loops, = 1 lemniscate, > 1 one oval."""
+    """B / a = sqrt(l_t l_r) / (l / 2) (seed 000 eq. 5): < 1 two loops, = 1 lemniscate, > 1 one oval."""
     return np.sqrt(range_product_m2) / (np.asarray(baseline_m) / 2.0)
 
 
@@ -28,8 +28,9 @@ def blind_zone(bistatic_range_m: FloatArray, baseline_m: FloatArray, blind_exces
     return bistatic_range_m - baseline_m[..., None] < blind_excess_m
 
 
-def in_field_of_view(rx_pos: FloatArray, boresight_rad: FloatArray, fov_rad: FloatArray,
-                     tgt_pos: FloatArray) -> tuple[BoolArray, FloatArray, FloatArray]:
+def in_field_of_view(
+    rx_pos: FloatArray, boresight_rad: FloatArray, fov_rad: FloatArray, tgt_pos: FloatArray
+) -> tuple[BoolArray, FloatArray, FloatArray]:
     """Array field of view and angles.
 
     Args: rx_pos (R, 2), boresight_rad (R,) (nan = no array: always in view), fov_rad (R,), tgt_pos (K, 2).

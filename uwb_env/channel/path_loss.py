@@ -22,5 +22,8 @@ def path_gain(freq_hz: FloatArray, distance_m: FloatArray, center_freq_hz: float
     pl0 *= db_to_linear(channel.excess_loss_db)
     f = np.asarray(freq_hz, dtype=float)
     d = np.asarray(distance_m, dtype=float)
-    return 1.0 / (pl0 * (f / center_freq_hz) ** (2.0 * (channel.frequency_exponent + 1.0))
-                  * (d / channel.reference_distance_m) ** channel.path_loss_exponent)
+    return 1.0 / (
+        pl0
+        * (f / center_freq_hz) ** (2.0 * (channel.frequency_exponent + 1.0))
+        * (d / channel.reference_distance_m) ** channel.path_loss_exponent
+    )

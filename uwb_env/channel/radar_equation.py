@@ -16,11 +16,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from uwb_env.channel.path_loss import path_gain
 from uwb_env.config import ChannelConfig
 from uwb_env.constants import BOLTZMANN_J_PER_K, REFERENCE_TEMPERATURE_K, SPEED_OF_LIGHT_MPS
 from uwb_env.typing import FloatArray
 from uwb_env.units import db_to_linear
-from uwb_env.channel.path_loss import path_gain
 
 
 def noise_psd(noise_figure_db: float) -> float:
@@ -28,9 +28,17 @@ def noise_psd(noise_figure_db: float) -> float:
     return BOLTZMANN_J_PER_K * REFERENCE_TEMPERATURE_K * db_to_linear(noise_figure_db)
 
 
-def bistatic_radar_constant(scan_energy_j: float, center_freq_hz: float, rms_bandwidth_hz: float,
-                            tx_gain_db: float, rx_gain_db: float, noise_figure_db: float, n_elements: int,
-                            channel: ChannelConfig, n_grid: int = 801) -> float:
+def bistatic_radar_constant(
+    scan_energy_j: float,
+    center_freq_hz: float,
+    rms_bandwidth_hz: float,
+    tx_gain_db: float,
+    rx_gain_db: float,
+    noise_figure_db: float,
+    n_elements: int,
+    channel: ChannelConfig,
+    n_grid: int = 801,
+) -> float:
     """Gamma [1/m^2] such that SNR = Gamma sigma / (l_t l_r / d0^2)^rho (module docstring).
 
     The spectrum integral runs over fc +- 5 beta (positive frequencies only) with the trapezoidal rule.
@@ -62,8 +70,7 @@ def bistatic_range(tx_pos: FloatArray, rx_pos: FloatArray, tgt_pos: FloatArray) 
     return lt[:, None, :] + lr[None, :, :]
 
 
-def bistatic_range_rate(tx_pos: FloatArray, rx_pos: FloatArray, tgt_pos: FloatArray,
-                        tgt_vel: FloatArray) -> FloatArray:
+def bistatic_range_rate(tx_pos: FloatArray, rx_pos: FloatArray, tgt_pos: FloatArray, tgt_vel: FloatArray) -> FloatArray:
     """d/dt (l_t + l_r) = v . (u_t + u_r), u the unit vectors from the nodes to the target; ``(T, R, K)`` [m/s].
 
     Args: tx_pos (T, 2), rx_pos (R, 2), tgt_pos (K, 2) [m], tgt_vel (K, 2) [m/s].
@@ -75,8 +82,15 @@ def bistatic_range_rate(tx_pos: FloatArray, rx_pos: FloatArray, tgt_pos: FloatAr
     return vt[:, None, :] + vr[None, :, :]
 
 
-def bistatic_snr(gamma: FloatArray, rcs_m2: FloatArray, lt: FloatArray, lr: FloatArray, rho: float,
-                 d0: float, loss_db: FloatArray | float = 0.0) -> FloatArray:
+def bistatic_snr(
+    gamma: FloatArray,
+    rcs_m2: FloatArray,
+    lt: FloatArray,
+    lr: FloatArray,
+    rho: float,
+    d0: float,
+    loss_db: FloatArray | float = 0.0,
+) -> FloatArray:
     """SNR = Gamma sigma / (l_t l_r / d0^2)^rho / L_walls.
 
     Args:
@@ -90,7 +104,6 @@ def bistatic_snr(gamma: FloatArray, rcs_m2: FloatArray, lt: FloatArray, lr: Floa
     return gamma[:, :, None] * rcs_m2 / product**rho * 10.0 ** (-np.asarray(loss_db) / 10.0)
 
 
-def snr_on_iso_range(gamma: FloatArray, beta_rad: FloatArray, bistatic_range_m: float,
-                     baseline_m: float) -> FloatArray:
+def snr_on_iso_range(gamma: FloatArray, beta_rad: FloatArray, bistatic_range_m: float, baseline_m: float) -> FloatArray:
     """Seed 000 eq. 7 (free space, unit RCS): SNR = 4 Gamma (1 + cos beta)^2 / ((l_t + l_r)^2 - l^2)^2."""
     return 4.0 * gamma * (1.0 + np.cos(beta_rad)) ** 2 / (bistatic_range_m**2 - baseline_m**2) ** 2

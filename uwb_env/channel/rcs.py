@@ -13,7 +13,6 @@ import numpy as np
 
 from uwb_env.typing import FloatArray, IntArray
 
-
 _WEIGHTS = {0: (1.0, 0.0, 0.0), 1: (0.0, 1.0, 0.0), 3: (0.0, 0.5, 0.5)}
 
 
@@ -22,8 +21,9 @@ def swerling_weights(swerling: IntArray) -> FloatArray:
     return np.array([_WEIGHTS[int(s)] for s in swerling], dtype=float).T.reshape(3, -1)
 
 
-def rcs_fluctuation(swerling: IntArray, shape: tuple[int, ...], rng: np.random.Generator,
-                    weights: FloatArray | None = None) -> FloatArray:
+def rcs_fluctuation(
+    swerling: IntArray, shape: tuple[int, ...], rng: np.random.Generator, weights: FloatArray | None = None
+) -> FloatArray:
     """Unit-mean RCS factors of shape ``shape + (K,)`` for targets with Swerling cases ``swerling`` (K,).
 
     ``weights`` (from :func:`swerling_weights`) may be passed precomputed.

@@ -36,8 +36,15 @@ def leg_obstruction(crossings: BoolArray, loss_db: FloatArray, delay_s: FloatArr
     return loss, c @ delay_s
 
 
-def pair_obstruction(tx_pos: FloatArray, rx_pos: FloatArray, tgt_pos: FloatArray, wall_a: FloatArray,
-                     wall_b: FloatArray, loss_db: FloatArray, delay_s: FloatArray) -> tuple[FloatArray, FloatArray]:
+def pair_obstruction(
+    tx_pos: FloatArray,
+    rx_pos: FloatArray,
+    tgt_pos: FloatArray,
+    wall_a: FloatArray,
+    wall_b: FloatArray,
+    loss_db: FloatArray,
+    delay_s: FloatArray,
+) -> tuple[FloatArray, FloatArray]:
     """Two-leg obstruction of every (tx, rx, target): loss ``(T, R, K)`` [dB] and excess delay ``(T, R, K)`` [s]."""
     if wall_a.shape[0] == 0:
         shape = (tx_pos.shape[0], rx_pos.shape[0], tgt_pos.shape[0])

@@ -34,8 +34,9 @@ from uwb_env.scenarios import register
 CONCRETE = MaterialConfig("concrete", loss_db=10.0, excess_delay_s=1e-9)
 
 
-def _wall_with_doors(a: tuple[float, float], b: tuple[float, float],
-                     doors: tuple[tuple[float, float], ...]) -> tuple[WallConfig, ...]:
+def _wall_with_doors(
+    a: tuple[float, float], b: tuple[float, float], doors: tuple[tuple[float, float], ...]
+) -> tuple[WallConfig, ...]:
     """Split a horizontal or vertical wall a->b into segments, leaving gaps at the door intervals."""
     horizontal = a[1] == b[1]
     lo, hi = (a[0], b[0]) if horizontal else (a[1], b[1])
@@ -68,8 +69,18 @@ def floor_plan() -> tuple[WallConfig, ...]:
     return outer + inner
 
 
-RADARS = ((0.5, 0.5), (6.5, 5.5), (7.5, 0.5), (12.5, 5.5), (13.5, 0.5),
-          (19.5, 5.5), (0.5, 11.5), (9.5, 6.5), (10.5, 11.5), (19.5, 6.5))
+RADARS = (
+    (0.5, 0.5),
+    (6.5, 5.5),
+    (7.5, 0.5),
+    (12.5, 5.5),
+    (13.5, 0.5),
+    (19.5, 5.5),
+    (0.5, 11.5),
+    (9.5, 6.5),
+    (10.5, 11.5),
+    (19.5, 6.5),
+)
 
 
 @register("indoor-monostatic")
@@ -77,8 +88,15 @@ def indoor_monostatic() -> ScenarioConfig:
     """Seed 002's ten monostatic radars on a walled floor, one person on a random 20 m walk."""
     ed = EnergyDetectorToaConfig(integration_time_s=4e-9, observation_window_s=100e-9)
     waveforms = tuple(
-        ImpulseWaveformConfig(f"npulse{n}", center_freq_hz=3.95e9, bandwidth_hz=1.7e9, n_pulses=n, prf_hz=5e6,
-                              toa_error_model="energy_detector", energy_detector=ed)
+        ImpulseWaveformConfig(
+            f"npulse{n}",
+            center_freq_hz=3.95e9,
+            bandwidth_hz=1.7e9,
+            n_pulses=n,
+            prf_hz=5e6,
+            toa_error_model="energy_detector",
+            energy_detector=ed,
+        )
         for n in (128, 32, 512)
     )
     walk = RoomWalkTrajectoryConfig(start_region=Box(1.0, 19.0, 1.0, 11.0), length_m=20.0, speed_mps=1.0)
@@ -97,7 +115,10 @@ def indoor_monostatic() -> ScenarioConfig:
         walls=floor_plan(),
         channel=ChannelConfig(path_loss_exponent=2.0, frequency_exponent=0.0, reference_distance_m=1.0),
         sensing=SensingConfig(
-            scan_period_s=0.2, false_alarm_probability=1e-3, max_range_m=15.0, blind_zone_excess_m=1.0,
+            scan_period_s=0.2,
+            false_alarm_probability=1e-3,
+            max_range_m=15.0,
+            blind_zone_excess_m=1.0,
             clutter=ClutterConfig(density_per_m2=0.01, range_rate_max_mps=2.0),
         ),
     )

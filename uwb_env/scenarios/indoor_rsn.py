@@ -43,7 +43,8 @@ def indoor_rsn() -> ScenarioConfig:
         for ns in (20480, 5120, 81920)
     )
     walk = SegmentedTrajectoryConfig(
-        start_position_m=(10.325, 3.0), start_velocity_mps=(-1.5, 0.0),
+        start_position_m=(10.325, 3.0),
+        start_velocity_mps=(-1.5, 0.0),
         segments=(MotionSegmentConfig("cv", 9.15 / 1.5),),
     )
     return ScenarioConfig(
@@ -59,7 +60,10 @@ def indoor_rsn() -> ScenarioConfig:
         n_scans=61,
         walls=rectangle_walls(-0.8, 12.3, -0.8, 6.8, DRYWALL),
         sensing=SensingConfig(
-            scan_period_s=0.1, false_alarm_probability=1e-3, max_range_m=15.0, blind_zone_excess_m=0.5,
+            scan_period_s=0.1,
+            false_alarm_probability=1e-3,
+            max_range_m=15.0,
+            blind_zone_excess_m=0.5,
             clutter=ClutterConfig(density_per_m2=0.02, range_rate_max_mps=3.0),
         ),
     )

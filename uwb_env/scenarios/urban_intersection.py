@@ -85,9 +85,17 @@ def urban_intersection() -> ScenarioConfig:
     """Seed 003's urban intersection with two vehicles and a four-chirp library."""
     array = UniformLinearArrayConfig(n_elements=3, spacing_m=0.0375, boresight_deg=130.0, field_of_view_deg=50.0)
     chirps = tuple(
-        ChirpWaveformConfig(f"k{kappa_us}us-{sweep}", pulse_duration_s=kappa_us * 1e-6, bandwidth_hz=40e6,
-                            carrier_hz=4e9, sweep=sweep, n_pulses=25, pri_s=0.01)
-        for kappa_us in (0.5, 1.375) for sweep in ("up", "down")
+        ChirpWaveformConfig(
+            f"k{kappa_us}us-{sweep}",
+            pulse_duration_s=kappa_us * 1e-6,
+            bandwidth_hz=40e6,
+            carrier_hz=4e9,
+            sweep=sweep,
+            n_pulses=25,
+            pri_s=0.01,
+        )
+        for kappa_us in (0.5, 1.375)
+        for sweep in ("up", "down")
     )
     path = seed003_path()
     walls = (
@@ -116,8 +124,12 @@ def urban_intersection() -> ScenarioConfig:
         walls=walls,
         clutter_points_m=_vegetation(),
         sensing=SensingConfig(
-            scan_period_s=0.25, false_alarm_probability=1e-4, max_range_m=300.0, blind_zone_excess_m=7.5,
-            clutter=ClutterConfig(density_per_m2=2.5e-4, discrete_fraction=0.5, discrete_spread_m=3.0,
-                                  range_rate_max_mps=30.0),
+            scan_period_s=0.25,
+            false_alarm_probability=1e-4,
+            max_range_m=300.0,
+            blind_zone_excess_m=7.5,
+            clutter=ClutterConfig(
+                density_per_m2=2.5e-4, discrete_fraction=0.5, discrete_spread_m=3.0, range_rate_max_mps=30.0
+            ),
         ),
     )

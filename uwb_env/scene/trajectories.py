@@ -21,8 +21,9 @@ from uwb_env.scene.motion_models import model_transition
 from uwb_env.typing import BoolArray, FloatArray
 
 
-def _segment_states(seg: MotionSegmentConfig, p0: FloatArray, speed: float, heading: float,
-                    tau: FloatArray) -> FloatArray:
+def _segment_states(
+    seg: MotionSegmentConfig, p0: FloatArray, speed: float, heading: float, tau: FloatArray
+) -> FloatArray:
     """States ``(n, 6)`` at times ``tau`` (n,) [s] since the start of one segment.
 
     cv: p = p0 + s u t. ca: speed s + a t along fixed heading u. ct: heading h0 + w t at constant speed,
@@ -81,8 +82,9 @@ def segmented_states(cfg: SegmentedTrajectoryConfig, t: FloatArray) -> tuple[Flo
     return states, (t >= 0.0) & (t <= cfg.duration_s + 1e-9)
 
 
-def motion_model_states(cfg: MotionModelTrajectoryConfig, t: FloatArray, dt: float,
-                        rng: np.random.Generator) -> tuple[FloatArray, BoolArray]:
+def motion_model_states(
+    cfg: MotionModelTrajectoryConfig, t: FloatArray, dt: float, rng: np.random.Generator
+) -> tuple[FloatArray, BoolArray]:
     """Sample a motion-model path on a ``dt`` grid and read it at local times ``t`` (S,) [s].
 
     The path is propagated exactly with the model's ``(F, G)`` and ``w_k ~ N(0, sigma_w^2 I)`` from ``rng``
@@ -100,8 +102,13 @@ def motion_model_states(cfg: MotionModelTrajectoryConfig, t: FloatArray, dt: flo
     return x[idx], (np.asarray(t) >= 0.0) & (np.asarray(t) <= cfg.duration_s + 1e-9)
 
 
-def room_walk_polyline(cfg: RoomWalkTrajectoryConfig, wall_a: FloatArray, wall_b: FloatArray,
-                       rng: np.random.Generator, max_tries: int = 200) -> FloatArray:
+def room_walk_polyline(
+    cfg: RoomWalkTrajectoryConfig,
+    wall_a: FloatArray,
+    wall_b: FloatArray,
+    rng: np.random.Generator,
+    max_tries: int = 200,
+) -> FloatArray:
     """Draw a walk of ``cfg.length_m`` that never crosses a wall (seed 002's random 20 m trajectories).
 
     Args:

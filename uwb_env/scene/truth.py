@@ -50,8 +50,9 @@ class Truth:
 
 
 @lru_cache(maxsize=64)
-def _segmented_cached(traj: SegmentedTrajectoryConfig, birth_s: float, n: int,
-                      dt: float) -> tuple[FloatArray, BoolArray]:
+def _segmented_cached(
+    traj: SegmentedTrajectoryConfig, birth_s: float, n: int, dt: float
+) -> tuple[FloatArray, BoolArray]:
     """Deterministic paths do not change between episodes: evaluate once per (path, birth, grid)."""
     states, valid = segmented_states(traj, np.arange(n) * dt - birth_s)
     states.flags.writeable = False
@@ -59,8 +60,9 @@ def _segmented_cached(traj: SegmentedTrajectoryConfig, birth_s: float, n: int,
     return states, valid
 
 
-def _target_states(target: TargetConfig, local_t: FloatArray, dt: float, layout: SceneLayout,
-                   rng: np.random.Generator) -> tuple[FloatArray, BoolArray]:
+def _target_states(
+    target: TargetConfig, local_t: FloatArray, dt: float, layout: SceneLayout, rng: np.random.Generator
+) -> tuple[FloatArray, BoolArray]:
     traj = target.trajectory
     if isinstance(traj, SegmentedTrajectoryConfig):
         return _segmented_cached(traj, target.birth_time_s, local_t.size, dt)

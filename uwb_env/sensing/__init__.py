@@ -11,9 +11,9 @@ from uwb_env.sensing.pd import (
 from uwb_env.sensing.records import Detections, ScanPlan
 
 __all__ = [
-    "EpisodeSensing",
     "Detections",
     "EpisodeGeometry",
+    "EpisodeSensing",
     "ParametricSensor",
     "ScanPlan",
     "azimuth_variance",

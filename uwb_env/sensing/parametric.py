@@ -99,8 +99,13 @@ class EpisodeSensing:
     clutter_start: np.ndarray
 
 
-def azimuth_variance(snr_total: FloatArray, n_elements: FloatArray, spacing_m: FloatArray,
-                     wavelength_m: float, off_boresight_rad: FloatArray) -> FloatArray:
+def azimuth_variance(
+    snr_total: FloatArray,
+    n_elements: FloatArray,
+    spacing_m: FloatArray,
+    wavelength_m: float,
+    off_boresight_rad: FloatArray,
+) -> FloatArray:
     r"""ULA direction-of-arrival CRLB [rad^2] for one source, deterministic signal.
 
     var(theta) = 6 / (SNR_e L (L^2 - 1) (2 pi d cos(theta) / lambda)^2), SNR_e = SNR_total / L per element
@@ -126,12 +131,27 @@ class ParametricSensor:
         self.rcs_mean = np.array([t.rcs_mean_m2 for t in cfg.targets])
         self._swerling_w = swerling_weights(self.swerling)
         # Radar constant per (waveform, tx, rx): the energy and spectrum of the waveform, the nodes' gains.
-        self.radar_constant = np.array([[[
-            bistatic_radar_constant(
-                wf.scan_energy_j(dbm_to_watts(tx.power_dbm)), wf.center_freq_hz, wf.rms_bandwidth_hz,
-                tx.antenna_gain_db, rx.antenna_gain_db, rx.noise_figure_db,
-                rx.array.n_elements if rx.array else 1, cfg.channel)
-            for rx in cfg.receivers] for tx in cfg.transmitters] for wf in self.library.waveforms])
+        self.radar_constant = np.array(
+            [
+                [
+                    [
+                        bistatic_radar_constant(
+                            wf.scan_energy_j(dbm_to_watts(tx.power_dbm)),
+                            wf.center_freq_hz,
+                            wf.rms_bandwidth_hz,
+                            tx.antenna_gain_db,
+                            rx.antenna_gain_db,
+                            rx.noise_figure_db,
+                            rx.array.n_elements if rx.array else 1,
+                            cfg.channel,
+                        )
+                        for rx in cfg.receivers
+                    ]
+                    for tx in cfg.transmitters
+                ]
+                for wf in self.library.waveforms
+            ]
+        )
         self.pairs = np.array(cfg.radar_pairs, dtype=np.int64).reshape(-1, 2)  # (P, 2) formed (tx, rx)
         self.pair_mask = np.zeros((self.n_tx, self.n_rx), dtype=bool)
         self.pair_mask[self.pairs[:, 0], self.pairs[:, 1]] = True
@@ -165,7 +185,6 @@ class ParametricSensor:
         """All truth-dependent geometry of the episode, vectorised over scans x pairs x targets."""
         lay, sens, ch = self.layout, self.cfg.sensing, self.cfg.channel
         S, K = truth.states.shape[:2]
-        T, R = self.n_tx, self.n_rx
         pos = truth.states[..., [0, 2]].reshape(-1, 2)
         vel = truth.states[..., [1, 3]].reshape(-1, 2)
         lt, lr = leg_lengths(lay.tx_pos, lay.rx_pos, pos)  # (T, SK), (R, SK)
@@ -174,8 +193,9 @@ class ParametricSensor:
         ur = (pos[None] - lay.rx_pos[:, None]) / lr_s[..., None]
         rdot = np.einsum("tnd,nd->tn", ut, vel)[:, None] + np.einsum("rnd,nd->rn", ur, vel)[None]
         rng_bi = lt[:, None] + lr[None]  # (T, R, SK)
-        loss_db, delay_s = pair_obstruction(lay.tx_pos, lay.rx_pos, pos, lay.wall_start, lay.wall_end,
-                                            lay.wall_loss_db, lay.wall_delay_s)
+        loss_db, delay_s = pair_obstruction(
+            lay.tx_pos, lay.rx_pos, pos, lay.wall_start, lay.wall_end, lay.wall_loss_db, lay.wall_delay_s
+        )
         in_view, az, off = in_field_of_view(lay.rx_pos, lay.rx_boresight_rad, lay.rx_fov_rad, pos)
         d0 = ch.reference_distance_m
         product = (lt_s[:, None] * lr_s[None]) / d0**2
@@ -185,9 +205,12 @@ class ParametricSensor:
         alive = truth.alive.reshape(-1)
         covered = (
             alive[None, None]
-            & (lt[:, None] <= sens.max_range_m) & (lr[None] <= sens.max_range_m)
+            & (lt[:, None] <= sens.max_range_m)
+            & (lr[None] <= sens.max_range_m)
             & ~blind_zone(rng_bi, self.baseline, sens.blind_zone_excess_m)
-            & np.isfinite(loss_db) & in_view[None] & self.pair_mask[..., None]
+            & np.isfinite(loss_db)
+            & in_view[None]
+            & self.pair_mask[..., None]
         )
 
         def per_scan(a: np.ndarray) -> np.ndarray:
@@ -205,8 +228,12 @@ class ParametricSensor:
     def _cached_geometry(self, truth: Truth) -> EpisodeGeometry:
         """Geometry of ``truth``, reused while the truth is unchanged (deterministic scenarios)."""
         cached = self._geometry_cache
-        if (cached is not None and cached[0].shape == truth.states.shape and np.array_equal(cached[0], truth.states)
-                and np.array_equal(cached[1], truth.alive)):
+        if (
+            cached is not None
+            and cached[0].shape == truth.states.shape
+            and np.array_equal(cached[0], truth.states)
+            and np.array_equal(cached[1], truth.alive)
+        ):
             return cached[2]
         geom = self.episode_geometry(truth)
         self._geometry_cache = (truth.states.copy(), truth.alive.copy(), geom)
@@ -249,8 +276,9 @@ class ParametricSensor:
         in_view, _, _ = in_field_of_view(lay.rx_pos, lay.rx_boresight_rad, lay.rx_fov_rad, pts)
         return ok & in_view[None] & self.pair_mask[..., None]
 
-    def _draw_clutter(self, n_scans: int, rng: np.random.Generator) -> tuple[np.ndarray, FloatArray, FloatArray,
-                                                                              FloatArray]:
+    def _draw_clutter(
+        self, n_scans: int, rng: np.random.Generator
+    ) -> tuple[np.ndarray, FloatArray, FloatArray, FloatArray]:
         """Poisson false alarms of every scan and formed pair.
 
         Returns:
@@ -312,9 +340,14 @@ class ParametricSensor:
         rows[:, 2 + m] = self.threshold - np.log1p(-u[0, idx]) - 1.0  # V_T + Exp(1) minus the unit noise power
         rows[:, 3 + m] = -1.0
         return EpisodeSensing(
-            geometry=geom, fading_snr=fading, det_offset=_SQRT_HALF * noise[:, 0],
-            det_level=np.where(geom.covered, level, np.inf), noise=noise[:, 2:],
-            clutter_rows=rows, clutter_rx=c_r[idx], clutter_start=np.searchsorted(scan[idx], np.arange(S + 1)),
+            geometry=geom,
+            fading_snr=fading,
+            det_offset=_SQRT_HALF * noise[:, 0],
+            det_level=np.where(geom.covered, level, np.inf),
+            noise=noise[:, 2:],
+            clutter_rows=rows,
+            clutter_rx=c_r[idx],
+            clutter_start=np.searchsorted(scan[idx], np.arange(S + 1)),
         )
 
     # ----------------------------------------------------------------------------------------------------- scan
@@ -342,12 +375,12 @@ class ParametricSensor:
             target_rows[:, 2] = geom.range_rate[k, t_i, r_i, k_i]
         target_rows[:, 2 + m] = s_t
         target_rows[:, 3 + m] = k_i
-        e = n[1:1 + m, t_i, r_i, k_i].T
+        e = n[1 : 1 + m, t_i, r_i, k_i].T
         if single:  # R = R1 / snr, so chol(R) = chol(R1) / sqrt(snr): no per-row factorisation
-            target_rows[:, 1:1 + m] += (e @ self._unit_chol[w0].T) / np.sqrt(s_t)[:, None]
+            target_rows[:, 1 : 1 + m] += (e @ self._unit_chol[w0].T) / np.sqrt(s_t)[:, None]
         else:
             cov_t = self._covariances(plan.waveform[t_i], s_t)
-            target_rows[:, 1:1 + m] += np.einsum("nij,nj->ni", np.linalg.cholesky(cov_t), e)
+            target_rows[:, 1 : 1 + m] += np.einsum("nij,nj->ni", np.linalg.cholesky(cov_t), e)
         if self._any_doa:
             az = geom.azimuth[k, r_i, k_i]
             sd = np.sqrt(self._azimuth_variance(plan, t_i, r_i, az, s_t))
@@ -361,9 +394,12 @@ class ParametricSensor:
         rows = np.concatenate([target_rows, clutter_rows])
         rows = rows[np.argsort(rows[:, 0] * _KEY_SPAN + rows[:, 1])]  # by pair, then range (|range| << span)
         snr_all = rows[:, 2 + m]
-        cov = self._unit_cov[w0][None] / snr_all[:, None, None] if single else self._covariances(
-            plan.waveform[rows[:, 0].astype(np.int64) // self.n_rx], snr_all)
-        bounds = np.searchsorted(rows[:, 0], self._pair_keys).tolist() + [rows.shape[0]]
+        cov = (
+            self._unit_cov[w0][None] / snr_all[:, None, None]
+            if single
+            else self._covariances(plan.waveform[rows[:, 0].astype(np.int64) // self.n_rx], snr_all)
+        )
+        bounds = [*np.searchsorted(rows[:, 0], self._pair_keys).tolist(), rows.shape[0]]
         origin = rows[:, 3 + m].astype(np.int64)
         out = []
         for p, (t, r) in enumerate(self._pair_list):  # the formed pairs: a small fixed set
@@ -371,18 +407,28 @@ class ParametricSensor:
                 continue
             lo, hi = bounds[p], bounds[p + 1]
             if self._doa_rx[r]:
-                z = rows[lo:hi, 1:2 + m]
+                z = rows[lo:hi, 1 : 2 + m]
                 tt = np.full(hi - lo, t)
                 rr = np.full(hi - lo, r)
                 var = self._azimuth_variance(plan, tt, rr, z[:, m], snr_all[lo:hi])
                 R = _append_block(cov[lo:hi], var)
             else:
-                z, R = rows[lo:hi, 1:1 + m], cov[lo:hi]
-            out.append(Detections(
-                tx=t, rx=r, waveform=int(plan.waveform[t]), time_s=time_s, z=z, R=R, snr=snr_all[lo:hi],
-                origin=origin[lo:hi], measurement_names=self._names[r], gate_volume=self._gate_volume[p],
-                clutter_density=self._clutter_density[p],
-            ))
+                z, R = rows[lo:hi, 1 : 1 + m], cov[lo:hi]
+            out.append(
+                Detections(
+                    tx=t,
+                    rx=r,
+                    waveform=int(plan.waveform[t]),
+                    time_s=time_s,
+                    z=z,
+                    R=R,
+                    snr=snr_all[lo:hi],
+                    origin=origin[lo:hi],
+                    measurement_names=self._names[r],
+                    gate_volume=self._gate_volume[p],
+                    clutter_density=self._clutter_density[p],
+                )
+            )
         return tuple(out)
 
     def _covariances(self, waveform_of_row: np.ndarray, snr: FloatArray) -> FloatArray:
@@ -394,11 +440,17 @@ class ParametricSensor:
             cov[sel] = self.library[w].covariance(snr[sel])
         return cov
 
-    def _azimuth_variance(self, plan: ScanPlan, t: np.ndarray, r: np.ndarray, az: FloatArray,
-                          snr: FloatArray) -> FloatArray:
+    def _azimuth_variance(
+        self, plan: ScanPlan, t: np.ndarray, r: np.ndarray, az: FloatArray, snr: FloatArray
+    ) -> FloatArray:
         lay = self.layout
-        return azimuth_variance(snr, lay.rx_n_elements[r], lay.rx_spacing_m[r],
-                                self._wavelength[plan.waveform[t]], _wrap(az - self._boresight[r]))
+        return azimuth_variance(
+            snr,
+            lay.rx_n_elements[r],
+            lay.rx_spacing_m[r],
+            self._wavelength[plan.waveform[t]],
+            _wrap(az - self._boresight[r]),
+        )
 
     def _validate(self, plan: ScanPlan) -> tuple[FloatArray, bool, int, bool]:
         """Validate a plan and derive what a scan needs from it, once.
@@ -413,8 +465,12 @@ class ParametricSensor:
         plan.validate(self.n_tx, self.n_rx, len(self.library))
         waveforms = set(plan.waveform.tolist())
         w0 = int(plan.waveform[0])
-        derived = (self.radar_constant[plan.waveform, self._tx_index][..., None], bool(plan.active_rx.all()), w0,
-                   len(waveforms) == 1 and self._unit_chol[w0] is not None)
+        derived = (
+            self.radar_constant[plan.waveform, self._tx_index][..., None],
+            bool(plan.active_rx.all()),
+            w0,
+            len(waveforms) == 1 and self._unit_chol[w0] is not None,
+        )
         if len(self._valid_plans) > 256:
             self._valid_plans.clear()
         self._valid_plans[id(plan)] = (plan, derived)

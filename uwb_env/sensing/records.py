@@ -37,8 +37,14 @@ class ScanPlan:
     def validate(self, n_tx: int, n_rx: int, n_waveforms: int) -> None:
         """Raise ``ValueError`` naming the field and value unless the plan fits the scenario."""
         w, a = self.waveform, self.active_rx
-        if (isinstance(w, np.ndarray) and isinstance(a, np.ndarray) and w.shape == (n_tx,) and a.shape == (n_rx,)
-                and w.dtype.kind in "iu" and a.dtype == np.bool_):
+        if (
+            isinstance(w, np.ndarray)
+            and isinstance(a, np.ndarray)
+            and w.shape == (n_tx,)
+            and a.shape == (n_rx,)
+            and w.dtype.kind in "iu"
+            and a.dtype == np.bool_
+        ):
             wl = w.tolist()
             if min(wl) >= 0 and max(wl) < n_waveforms and True in a.tolist():
                 return  # fast path: the common valid plan
@@ -50,8 +56,10 @@ class ScanPlan:
         bad = (w < 0) | (w >= n_waveforms)
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
-            raise ValueError(f"ScanPlan.waveform[{i}] = {int(w[i])}: must be in [0, {n_waveforms}) "
-                             f"(the library has {n_waveforms} waveforms)")
+            raise ValueError(
+                f"ScanPlan.waveform[{i}] = {int(w[i])}: must be in [0, {n_waveforms}) "
+                f"(the library has {n_waveforms} waveforms)"
+            )
         if a.shape != (n_rx,):
             raise ValueError(f"ScanPlan.active_rx has shape {a.shape}: must be ({n_rx},), one flag per receiver")
         if a.dtype != np.bool_:

@@ -49,7 +49,7 @@ from uwb_env.typing import FloatArray
 
 
 def chirp_rate(pulse_duration_s: float, bandwidth_hz: float, sweep: str) -> float:
-    """gamma [rad/s^2] sweeping ``bandwidth_hz`` over t in [-kappa, kappa]: gamma = +-pi B / (2 kappa)."""
+    """Gamma [rad/s^2] sweeping ``bandwidth_hz`` over t in [-kappa, kappa]: gamma = +-pi B / (2 kappa)."""
     sign = 1.0 if sweep == "up" else -1.0
     return sign * math.pi * bandwidth_hz / (2.0 * pulse_duration_s)
 
@@ -64,13 +64,15 @@ def gaussian_chirp_fim(kappa: float, gamma: float, snr: FloatArray) -> FloatArra
         ``(N, 2, 2)`` J for (tau [s], omega [rad/s]).
     """
     snr = np.asarray(snr, dtype=float)
-    base = np.array([[1.0 / (2 * kappa**2) + 2 * gamma**2 * kappa**2, -gamma * kappa**2],
-                     [-gamma * kappa**2, kappa**2 / 2.0]])
+    base = np.array(
+        [[1.0 / (2 * kappa**2) + 2 * gamma**2 * kappa**2, -gamma * kappa**2], [-gamma * kappa**2, kappa**2 / 2.0]]
+    )
     return 2.0 * snr[..., None, None] * base
 
 
-def gaussian_chirp_range_rate_covariance(kappa: float, gamma: float, wavelength_m: float,
-                                         snr: FloatArray) -> FloatArray:
+def gaussian_chirp_range_rate_covariance(
+    kappa: float, gamma: float, wavelength_m: float, snr: FloatArray
+) -> FloatArray:
     """CRLB covariance of (bistatic range [m], bistatic range-rate [m/s]), closed form (module docstring).
 
     Args:
@@ -81,10 +83,12 @@ def gaussian_chirp_range_rate_covariance(kappa: float, gamma: float, wavelength_
     """
     inv = 1.0 / np.asarray(snr, dtype=float)
     q = wavelength_m / (2.0 * math.pi)
-    base = np.array([
-        [SPEED_OF_LIGHT_MPS**2 * kappa**2, -SPEED_OF_LIGHT_MPS * q * 2 * gamma * kappa**2],
-        [-SPEED_OF_LIGHT_MPS * q * 2 * gamma * kappa**2, q**2 * (1.0 / kappa**2 + 4 * gamma**2 * kappa**2)],
-    ])
+    base = np.array(
+        [
+            [SPEED_OF_LIGHT_MPS**2 * kappa**2, -SPEED_OF_LIGHT_MPS * q * 2 * gamma * kappa**2],
+            [-SPEED_OF_LIGHT_MPS * q * 2 * gamma * kappa**2, q**2 * (1.0 / kappa**2 + 4 * gamma**2 * kappa**2)],
+        ]
+    )
     return inv[..., None, None] * base
 
 
@@ -144,5 +148,4 @@ class ChirpWaveform:
 
     def covariance(self, snr: FloatArray) -> FloatArray:
         """``(N, 2, 2)`` (range, range-rate) CRLB covariance at E/N0 ``snr`` (N,)."""
-        return gaussian_chirp_range_rate_covariance(self.config.pulse_duration_s, self.gamma,
-                                                    self.wavelength_m, snr)
+        return gaussian_chirp_range_rate_covariance(self.config.pulse_duration_s, self.gamma, self.wavelength_m, snr)

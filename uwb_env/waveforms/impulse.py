@@ -97,5 +97,3 @@ class ImpulseWaveform:
 def integration_gain_db(n_pulses: int) -> float:
     """SNR gain of coherent integration of ``n_pulses`` pulses [dB] (= 10 log10 Ns)."""
     return linear_to_db(float(n_pulses))
-
-

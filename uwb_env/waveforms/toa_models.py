@@ -39,8 +39,7 @@ def energy_detector_coefficients(n_pulses: int, cfg: EnergyDetectorToaConfig) ->
     return z_lo - b * lb, b
 
 
-def energy_detector_toa_std(snr_per_pulse_db: FloatArray, n_pulses: int,
-                            cfg: EnergyDetectorToaConfig) -> FloatArray:
+def energy_detector_toa_std(snr_per_pulse_db: FloatArray, n_pulses: int, cfg: EnergyDetectorToaConfig) -> FloatArray:
     """ToA standard deviation [s] of the energy detector at per-pulse SNR ``snr_per_pulse_db`` (N,) [dB]."""
     snr_db = np.asarray(snr_per_pulse_db, dtype=float)
     lb, ub = energy_detector_thresholds_db(n_pulses)
