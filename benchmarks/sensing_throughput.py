@@ -1,16 +1,17 @@
 """Parametric sensing throughput (scans per second) for every scenario, in one process.
 
-Run: python benchmarks/sensing_throughput.py [--episodes N]
+Run: python benchmarks/sensing_throughput.py [--episodes N] [--repeats R]
 
 Each episode is what an environment does: draw the truth, ``ParametricSensor.new_episode`` (geometry and all
 plan-independent draws), then ``sense()`` every scan with a round-robin waveform plan. The headline figure
 "scans/s (episode)" divides the scans by the *whole* time, reset included; "scans/s (sense)" is the per-scan call
-alone.
+alone. Each figure is the median of R repeats (min-max in brackets): this shared 2-core machine is noisy.
 """
 
 from __future__ import annotations
 
 import argparse
+import statistics
 import time
 
 from uwb_env import scenarios
@@ -53,17 +54,20 @@ def measure(name: str, n_episodes: int) -> dict[str, float]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--episodes", type=int, default=100)
+    ap.add_argument("--repeats", type=int, default=3)
     args = ap.parse_args()
-    print(
-        f"{'scenario':20s} {'targets':>7s} {'pairs':>5s} {'scans/s (episode)':>18s} {'scans/s (sense)':>16s} "
-        f"{'reset ms/episode':>17s}"
-    )
+    head = f"{'scenario':20s} {'targets':>7s} {'pairs':>5s} {'scans/s (episode)':>24s} {'scans/s (sense)':>24s}"
+    print(head + f" {'reset ms/episode':>17s}")
     for name in scenarios.names():
-        r = measure(name, args.episodes)
-        print(
-            f"{name:20s} {r['targets']:7d} {r['pairs']:5d} {r['episode']:18.0f} {r['sense']:16.0f} "
-            f"{r['reset_ms']:17.2f}"
-        )
+        runs = [measure(name, args.episodes) for _ in range(args.repeats)]
+
+        def fmt(key: str, runs: list[dict[str, float]] = runs) -> str:
+            v = [r[key] for r in runs]
+            return f"{statistics.median(v):.0f} [{min(v):.0f}-{max(v):.0f}]"
+
+        r = runs[0]
+        reset = statistics.median(x["reset_ms"] for x in runs)
+        print(f"{name:20s} {r['targets']:7d} {r['pairs']:5d} {fmt('episode'):>24s} {fmt('sense'):>24s} {reset:17.2f}")
 
 
 if __name__ == "__main__":

@@ -82,6 +82,8 @@ class EpisodeSensing:
             rewritten as |sqrt(SNR) + a| > sqrt(V_T - b^2): det_offset = a, det_level = sqrt(max(V_T - b^2, 0))
             (-1 where noise alone crosses, +inf where the target is not covered).
         noise: ``(S, 1 + m, T, R, K)`` standard normals: azimuth (1), measurement (m).
+        unit_noise: ``(W, S, T, R, K, m)`` measurement noise at SNR = 1 for each waveform whose R scales as
+            1 / SNR, chol(R1_w) e (zeros for the others): a detection's noise is unit_noise / sqrt(SNR).
         clutter_rows: ``(N, 4 + m)`` the false alarms that fall in their pair's gate, sorted by scan then pair,
             in the row layout of :meth:`ParametricSensor.sense`: [pair key, measurement (m), azimuth, SNR,
             origin = -1]; the SNR is the apparent one of noise over the threshold.
@@ -94,6 +96,7 @@ class EpisodeSensing:
     det_offset: FloatArray
     det_level: FloatArray
     noise: FloatArray
+    unit_noise: FloatArray
     clutter_rows: FloatArray
     clutter_rx: np.ndarray
     clutter_start: np.ndarray
@@ -176,7 +179,8 @@ class ParametricSensor:
         self._unit_cov = [w.unit_covariance for w in self.library.waveforms]
         self._geometry_cache: tuple[FloatArray, BoolArray, EpisodeGeometry] | None = None
         self._valid_plans: dict[int, tuple[ScanPlan, tuple[FloatArray, bool, int, bool]]] = {}
-        self._boresight_unit = np.column_stack([np.cos(self._boresight), np.sin(self._boresight)])
+        self._bx, self._by = np.cos(self._boresight), np.sin(self._boresight)
+        self._rx_x, self._rx_y = lay.rx_pos[:, 0].copy(), lay.rx_pos[:, 1].copy()
         self._cos_fov = np.cos(np.minimum(self._fov, math.pi))
         self._unit_chol = [None if c is None else np.linalg.cholesky(c) for c in self._unit_cov]
 
@@ -320,14 +324,13 @@ class ParametricSensor:
             dxt, dyt = x - lay.tx_pos[0, 0], y - lay.tx_pos[0, 1]
         else:
             dxt, dyt = x - lay.tx_pos[c_t, 0], y - lay.tx_pos[c_t, 1]
-        dxr, dyr = x - lay.rx_pos[c_r, 0], y - lay.rx_pos[c_r, 1]
+        dxr, dyr = x - self._rx_x[c_r], y - self._rx_y[c_r]
         lt2 = dxt * dxt + dyt * dyt
         lr2 = dxr * dxr + dyr * dyr
         max2 = sens.max_range_m**2
         ok = (lt2 <= max2) & (lr2 <= max2)
         if self._any_array:  # field of view: d . b >= |d| cos(fov), b the boresight unit vector
-            b = self._boresight_unit[c_r]
-            ok &= dxr * b[:, 0] + dyr * b[:, 1] >= np.sqrt(lr2) * self._cos_fov[c_r]
+            ok &= dxr * self._bx[c_r] + dyr * self._by[c_r] >= np.sqrt(lr2) * self._cos_fov[c_r]
         c_range = np.sqrt(lt2) + np.sqrt(lr2)
         ok &= c_range - self.baseline[c_t, c_r] >= sens.blind_zone_excess_m
         idx = np.flatnonzero(ok)
@@ -345,6 +348,12 @@ class ParametricSensor:
             det_offset=_SQRT_HALF * noise[:, 0],
             det_level=np.where(geom.covered, level, np.inf),
             noise=noise[:, 2:],
+            unit_noise=np.stack(
+                [
+                    np.zeros((S, T, R, K, m)) if L is None else np.moveaxis(noise[:, 3:], 1, -1) @ L.T
+                    for L in self._unit_chol
+                ]
+            ),
             clutter_rows=rows,
             clutter_rx=c_r[idx],
             clutter_start=np.searchsorted(scan[idx], np.arange(S + 1)),
@@ -375,10 +384,10 @@ class ParametricSensor:
             target_rows[:, 2] = geom.range_rate[k, t_i, r_i, k_i]
         target_rows[:, 2 + m] = s_t
         target_rows[:, 3 + m] = k_i
-        e = n[1 : 1 + m, t_i, r_i, k_i].T
-        if single:  # R = R1 / snr, so chol(R) = chol(R1) / sqrt(snr): no per-row factorisation
-            target_rows[:, 1 : 1 + m] += (e @ self._unit_chol[w0].T) / np.sqrt(s_t)[:, None]
+        if single:  # R = R1 / snr, so chol(R) = chol(R1) / sqrt(snr): pre-scaled noise, no factorisation
+            target_rows[:, 1 : 1 + m] += episode.unit_noise[w0, k, t_i, r_i, k_i] / np.sqrt(s_t)[:, None]
         else:
+            e = n[1 : 1 + m, t_i, r_i, k_i].T
             cov_t = self._covariances(plan.waveform[t_i], s_t)
             target_rows[:, 1 : 1 + m] += np.einsum("nij,nj->ni", np.linalg.cholesky(cov_t), e)
         if self._any_doa:
