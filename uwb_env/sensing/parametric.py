@@ -82,6 +82,8 @@ class EpisodeSensing:
             rewritten as |sqrt(SNR) + a| > sqrt(V_T - b^2): det_offset = a, det_level = sqrt(max(V_T - b^2, 0))
             (-1 where noise alone crosses, +inf where the target is not covered).
         noise: ``(S, 1 + m, T, R, K)`` standard normals: azimuth (1), measurement (m).
+        target_rows: ``(S, T, R, K, 4 + m)`` noise-free row templates of every possible target detection, in the
+            row layout of :meth:`ParametricSensor.sense` (SNR and azimuth columns left at 0).
         unit_noise: ``(W, S, T, R, K, m)`` measurement noise at SNR = 1 for each waveform whose R scales as
             1 / SNR, chol(R1_w) e (zeros for the others): a detection's noise is unit_noise / sqrt(SNR).
         clutter_rows: ``(N, 4 + m)`` the false alarms that fall in their pair's gate, sorted by scan then pair,
@@ -96,6 +98,7 @@ class EpisodeSensing:
     det_offset: FloatArray
     det_level: FloatArray
     noise: FloatArray
+    target_rows: FloatArray
     unit_noise: FloatArray
     clutter_rows: FloatArray
     clutter_rx: np.ndarray
@@ -178,7 +181,7 @@ class ParametricSensor:
         self._clutter_total = cfg.sensing.clutter.density_per_m2 * area
         self._unit_cov = [w.unit_covariance for w in self.library.waveforms]
         self._geometry_cache: tuple[FloatArray, BoolArray, EpisodeGeometry] | None = None
-        self._valid_plans: dict[int, tuple[ScanPlan, tuple[FloatArray, bool, int, bool]]] = {}
+        self._valid_plans: dict[int, tuple[ScanPlan, tuple[FloatArray, bool, int, bool, list[int]]]] = {}
         self._bx, self._by = np.cos(self._boresight), np.sin(self._boresight)
         self._rx_x, self._rx_y = lay.rx_pos[:, 0].copy(), lay.rx_pos[:, 1].copy()
         self._cos_fov = np.cos(np.minimum(self._fov, math.pi))
@@ -348,6 +351,7 @@ class ParametricSensor:
             det_offset=_SQRT_HALF * noise[:, 0],
             det_level=np.where(geom.covered, level, np.inf),
             noise=noise[:, 2:],
+            target_rows=self._target_row_templates(geom),
             unit_noise=np.stack(
                 [
                     np.zeros((S, T, R, K, m)) if L is None else np.moveaxis(noise[:, 3:], 1, -1) @ L.T
@@ -359,6 +363,18 @@ class ParametricSensor:
             clutter_start=np.searchsorted(scan[idx], np.arange(S + 1)),
         )
 
+    def _target_row_templates(self, geom: EpisodeGeometry) -> FloatArray:
+        """``(S, T, R, K, 4 + m)``: [pair key, range, (range-rate), 0, 0, target index] for every detection."""
+        S, T, R, K = geom.unit_snr.shape
+        m = self.library.measurement_dim
+        rows = np.zeros((S, T, R, K, 4 + m))
+        rows[..., 0] = (np.arange(T)[:, None] * R + np.arange(R)[None, :])[None, :, :, None]
+        rows[..., 1] = geom.bistatic_range
+        if m == 2:
+            rows[..., 2] = geom.range_rate
+        rows[..., 3 + m] = np.arange(K)
+        return rows
+
     # ----------------------------------------------------------------------------------------------------- scan
     def sense(self, episode: EpisodeSensing, k: int, plan: ScanPlan, time_s: float = 0.0) -> tuple[Detections, ...]:
         """Detections of every active formed pair in scan ``k``, ordered by (tx, rx); the plan is validated here.
@@ -366,7 +382,7 @@ class ParametricSensor:
         All detections of all pairs are rows of one array -- [pair key, measurement (m), azimuth, SNR, origin] --
         sorted once by (pair, range) and split per pair at the end.
         """
-        gamma, all_active, w0, single = self._validate(plan)
+        gamma, all_active, w0, single, waveform_of_tx = self._validate(plan)
         m = self.library.measurement_dim
         active = plan.active_rx
         n = episode.noise[k]
@@ -377,13 +393,8 @@ class ParametricSensor:
         hit = np.abs(np.sqrt(snr) + episode.det_offset[k]) > episode.det_level[k]
         t_i, r_i, k_i = np.nonzero(hit & active[None, :, None])
         s_t = snr[t_i, r_i, k_i]
-        target_rows = np.empty((t_i.size, 4 + m))
-        target_rows[:, 0] = t_i * self.n_rx + r_i
-        target_rows[:, 1] = geom.bistatic_range[k, t_i, r_i, k_i]
-        if m == 2:
-            target_rows[:, 2] = geom.range_rate[k, t_i, r_i, k_i]
+        target_rows = episode.target_rows[k, t_i, r_i, k_i]  # a copy: fancy indexing
         target_rows[:, 2 + m] = s_t
-        target_rows[:, 3 + m] = k_i
         if single:  # R = R1 / snr, so chol(R) = chol(R1) / sqrt(snr): pre-scaled noise, no factorisation
             target_rows[:, 1 : 1 + m] += episode.unit_noise[w0, k, t_i, r_i, k_i] / np.sqrt(s_t)[:, None]
         else:
@@ -401,7 +412,7 @@ class ParametricSensor:
         if not all_active:
             clutter_rows = clutter_rows[active[episode.clutter_rx[a:b]]]
         rows = np.concatenate([target_rows, clutter_rows])
-        rows = rows[np.argsort(rows[:, 0] * _KEY_SPAN + rows[:, 1])]  # by pair, then range (|range| << span)
+        rows = rows.take(np.argsort(rows[:, 0] * _KEY_SPAN + rows[:, 1]), axis=0)  # pair, then range (<< span)
         snr_all = rows[:, 2 + m]
         cov = (
             self._unit_cov[w0][None] / snr_all[:, None, None]
@@ -427,7 +438,7 @@ class ParametricSensor:
                 Detections(
                     tx=t,
                     rx=r,
-                    waveform=int(plan.waveform[t]),
+                    waveform=waveform_of_tx[t],
                     time_s=time_s,
                     z=z,
                     R=R,
@@ -461,12 +472,12 @@ class ParametricSensor:
             _wrap(az - self._boresight[r]),
         )
 
-    def _validate(self, plan: ScanPlan) -> tuple[FloatArray, bool, int, bool]:
+    def _validate(self, plan: ScanPlan) -> tuple[FloatArray, bool, int, bool, list[int]]:
         """Validate a plan and derive what a scan needs from it, once.
 
         Plans are immutable, so a validated plan is remembered by identity. Returns the radar constants
-        ``(T, R, 1)`` of the plan's waveforms, whether every receiver listens, the first waveform, and whether one
-        waveform with a 1/SNR covariance serves all transmitters.
+        ``(T, R, 1)`` of the plan's waveforms, whether every receiver listens, the first waveform, whether one
+        waveform with a 1/SNR covariance serves all transmitters, and the waveform of each transmitter.
         """
         hit = self._valid_plans.get(id(plan))
         if hit is not None and hit[0] is plan:
@@ -479,6 +490,7 @@ class ParametricSensor:
             bool(plan.active_rx.all()),
             w0,
             len(waveforms) == 1 and self._unit_chol[w0] is not None,
+            plan.waveform.tolist(),
         )
         if len(self._valid_plans) > 256:
             self._valid_plans.clear()
