@@ -184,3 +184,21 @@ def test_library_rejects_mixed_measurement_dimensions_and_empty():
     with pytest.raises(ValueError, match="at least one waveform"):
         WaveformLibrary(())
     assert WaveformLibrary((chirp,)).names == ("c",)
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    fc=st.floats(1e9, 1e10),
+    frac=st.floats(0.05, 1.9),
+    n_pulses=st.integers(1, 100_000),
+    snr_db=st.floats(-30, 100),
+    model=st.sampled_from(["crlb", "energy_detector"]),
+)
+def test_impulse_covariance_positive_and_non_increasing_in_snr(fc, frac, n_pulses, snr_db, model):
+    w = ImpulseWaveform(ImpulseWaveformConfig("i", fc, frac * fc, n_pulses=n_pulses, toa_error_model=model))
+    snr = 10 ** (np.array([snr_db, snr_db + 3.0]) / 10)
+    R = w.covariance(snr)
+    assert R.shape == (2, 1, 1)
+    assert np.all(np.isfinite(R))
+    assert np.all(R > 0)
+    assert R[1, 0, 0] <= R[0, 0, 0]
