@@ -13,7 +13,13 @@ For every transmitter-receiver pair and target in a scan:
    the excess delay of seed 002 as a positive range bias;
 5. false detections: a spatial Poisson process of ``clutter.density_per_m2`` over the surveillance area, part of it
    around the clutter scatterers, drawn independently per pair and thinned to the pair's coverage. Their apparent
-   SNR is that of noise over the threshold (V_T + Exp(1) - 1) and their range-rate is uniform.
+   SNR is that of noise over the threshold (V_T + Exp(1) - 1), their true range-rate is uniform in
+   +-``range_rate_max_mps``, and they are measured through the same waveform as targets (noise of R at their
+   apparent SNR), so no statistic but the likelihood tells a false alarm from a target;
+6. every detection carries ``clutter_intensity``, the known clutter map in measurement space at its value (the
+   rho_i of PDA / LMIPDA): the pair's bistatic-range density of false alarms (quadrature over the area and the
+   scatterers, precomputed) x the density of a false alarm's measured range-rate, N(0, R_dd + rdot_max^2 / 3)
+   (uniform truth plus measurement noise) x 1 / (2 x field of view) for azimuth.
 
 A target is not detected by a pair when it is not alive, beyond ``max_range_m`` from either node, inside the blind
 zone (seed 000 section IV-G), hidden by an opaque wall, or outside the array's field of view.
@@ -90,6 +96,7 @@ class EpisodeSensing:
             in the row layout of :meth:`ParametricSensor.sense`: [pair key, measurement (m), azimuth, SNR,
             origin = -1]; the SNR is the apparent one of noise over the threshold.
         clutter_rx: ``(N,)`` their receiver index.
+        clutter_noise: ``(N, m)`` standard normals of their measurement noise (scaled by the plan's waveform).
         clutter_start: ``(S + 1,)`` offsets of each scan's false alarms.
     """
 
@@ -102,6 +109,7 @@ class EpisodeSensing:
     unit_noise: FloatArray
     clutter_rows: FloatArray
     clutter_rx: np.ndarray
+    clutter_noise: FloatArray
     clutter_start: np.ndarray
 
 
@@ -165,12 +173,15 @@ class ParametricSensor:
         names = list(self.library.measurement_names)
         self._doa_rx = lay.rx_has_array & self.use_doa
         self._names = {r: tuple(names + (["azimuth"] if self._doa_rx[r] else [])) for r in range(self.n_rx)}
-        self._clutter_mean, self.gate_volume = self._clutter_statistics()
+        self._clutter_mean, self._range_table = self._clutter_statistics()
         # Per-scan constants, precomputed for the hot path.
         self._pair_list = [tuple(p) for p in self.pairs.tolist()]
         self._pair_keys = np.array([t * self.n_rx + r for t, r in self._pair_list], dtype=np.int64)
-        self._gate_volume = [float(self.gate_volume[t, r]) for t, r in self._pair_list]
-        self._clutter_density = [float(self._clutter_mean[t, r] / self.gate_volume[t, r]) for t, r in self._pair_list]
+        self._expected_false = [float(self._clutter_mean[t, r]) for t, r in self._pair_list]
+        self._pair_of_key = np.full(self.n_tx * self.n_rx, -1, dtype=np.int64)
+        self._pair_of_key[self._pair_keys] = np.arange(len(self._pair_list))
+        self._bin_scale = (len(self._range_edges) - 1) / self._range_edges[-1]
+        self._rdot_var = cfg.sensing.clutter.range_rate_max_mps**2 / 3.0
         self._any_array = bool(lay.rx_has_array.any())
         self._any_doa = bool(self._doa_rx.any())
         self._boresight = np.nan_to_num(lay.rx_boresight_rad)
@@ -183,6 +194,7 @@ class ParametricSensor:
         self._geometry_cache: tuple[FloatArray, BoolArray, EpisodeGeometry] | None = None
         self._valid_plans: dict[int, tuple[ScanPlan, tuple[FloatArray, bool, int, bool, list[int]]]] = {}
         self._bx, self._by = np.cos(self._boresight), np.sin(self._boresight)
+        self._doa_density = np.where(self._doa_rx, 1.0 / (2.0 * np.minimum(self._fov, math.pi)), 1.0)
         self._rx_x, self._rx_y = lay.rx_pos[:, 0].copy(), lay.rx_pos[:, 1].copy()
         self._cos_fov = np.cos(np.minimum(self._fov, math.pi))
         self._unit_chol = [None if c is None else np.linalg.cholesky(c) for c in self._unit_cov]
@@ -255,24 +267,42 @@ class ParametricSensor:
         return self.radar_constant[plan.waveform, self._tx_index]
 
     # ------------------------------------------------------------------------------------------------- clutter
-    def _clutter_statistics(self, cell_m: float = 1.0) -> tuple[FloatArray, FloatArray]:
-        """Expected false detections per pair and scan, and each pair's gate volume in measurement space."""
+    def _clutter_statistics(self, cell_m: float = 1.0, n_bins: int = 1000) -> tuple[FloatArray, FloatArray]:
+        """Expected false detections per pair and scan ``(T, R)``, and each formed pair's bistatic-range density.
+
+        Quadrature of the clutter intensity: the uniform part on a ``cell_m`` grid over the area, the discrete part
+        with a 5 x 5 Gauss-Hermite rule around each scatterer; both thinned to each pair's gate and histogrammed in
+        bistatic range. Sets ``self._range_edges`` (n_bins + 1,) and returns the density table ``(P, n_bins + 2)``
+        [false alarms per metre], zero-padded at both ends for out-of-range look-ups.
+        """
         lay, sens, cl = self.layout, self.cfg.sensing, self.cfg.sensing.clutter
         x0, x1, y0, y1 = lay.area
         xs = np.arange(x0 + cell_m / 2, x1, cell_m)
         ys = np.arange(y0 + cell_m / 2, y1, cell_m)
-        grid = np.stack(np.meshgrid(xs, ys), -1).reshape(-1, 2)
-        uniform_in = self._in_gate(grid).mean(axis=-1)  # (T, R) fraction of the area inside each gate
+        pts = np.stack(np.meshgrid(xs, ys), -1).reshape(-1, 2)
         area = (x1 - x0) * (y1 - y0)
-        mean = (1.0 - cl.discrete_fraction) * cl.density_per_m2 * area * uniform_in
+        w = np.full(pts.shape[0], (1.0 - cl.discrete_fraction) * cl.density_per_m2 * area / pts.shape[0])
         if cl.discrete_fraction > 0:
-            mean = mean + cl.discrete_fraction * cl.density_per_m2 * area * self._in_gate(lay.clutter_points).mean(-1)
-        r_lo = self.baseline + sens.blind_zone_excess_m
-        volume = np.maximum(2.0 * sens.max_range_m - r_lo, 1e-9)
-        if self.library.measurement_dim == 2:
-            volume = volume * 2.0 * cl.range_rate_max_mps
-        doa_extent = np.where(self._doa_rx, 2.0 * np.nan_to_num(lay.rx_fov_rad, nan=math.pi), 1.0)
-        return mean, volume * doa_extent[None, :]
+            node, weight = np.polynomial.hermite_e.hermegauss(5)
+            weight = weight / weight.sum()
+            off = cl.discrete_spread_m * np.stack(np.meshgrid(node, node), -1).reshape(-1, 2)
+            w_off = np.outer(weight, weight).reshape(-1)
+            per_point = cl.discrete_fraction * cl.density_per_m2 * area / lay.clutter_points.shape[0]
+            disc = (lay.clutter_points[:, None] + off[None]).reshape(-1, 2)
+            pts = np.concatenate([pts, disc])
+            w = np.concatenate([w, np.tile(per_point * w_off, lay.clutter_points.shape[0])])
+        in_gate = self._in_gate(pts)  # (T, R, N)
+        lt, lr = leg_lengths(lay.tx_pos, lay.rx_pos, pts)
+        edges = np.linspace(0.0, 2.0 * sens.max_range_m, n_bins + 1)
+        self._range_edges = edges
+        table = np.zeros((self.pairs.shape[0], n_bins + 2))
+        mean = np.zeros((self.n_tx, self.n_rx))
+        for p, (t, r) in enumerate(self.pairs.tolist()):  # formed pairs, at construction only
+            sel = in_gate[t, r]
+            hist, _ = np.histogram(lt[t, sel] + lr[r, sel], bins=edges, weights=w[sel])
+            table[p, 1:-1] = hist / np.diff(edges)
+            mean[t, r] = w[sel].sum()
+        return mean, table
 
     def _in_gate(self, pts: FloatArray) -> BoolArray:
         """``(T, R, N)`` whether points lie in each pair's coverage gate (range limits, blind zone, view)."""
@@ -359,6 +389,7 @@ class ParametricSensor:
                 ]
             ),
             clutter_rows=rows,
+            clutter_noise=rngs.clutter.standard_normal((idx.size, m)),
             clutter_rx=c_r[idx],
             clutter_start=np.searchsorted(scan[idx], np.arange(S + 1)),
         )
@@ -408,10 +439,18 @@ class ParametricSensor:
 
         # False alarms of this scan at the listening receivers, then one sort by (pair, range).
         a, b = episode.clutter_start[k], episode.clutter_start[k + 1]
-        clutter_rows = episode.clutter_rows[a:b]
+        clutter_rows, clutter_e = episode.clutter_rows[a:b], episode.clutter_noise[a:b]
         if not all_active:
-            clutter_rows = clutter_rows[active[episode.clutter_rx[a:b]]]
+            keep = active[episode.clutter_rx[a:b]]
+            clutter_rows, clutter_e = clutter_rows[keep], clutter_e[keep]
         rows = np.concatenate([target_rows, clutter_rows])
+        n_t = target_rows.shape[0]
+        s_c = rows[n_t:, 2 + m]
+        if single:  # false alarms are measured through the same waveform
+            rows[n_t:, 1 : 1 + m] += (clutter_e @ self._unit_chol[w0].T) / np.sqrt(s_c)[:, None]
+        else:
+            cov_c = self._covariances(plan.waveform[rows[n_t:, 0].astype(np.int64) // self.n_rx], s_c)
+            rows[n_t:, 1 : 1 + m] += np.einsum("nij,nj->ni", np.linalg.cholesky(cov_c), clutter_e)
         rows = rows.take(np.argsort(rows[:, 0] * _KEY_SPAN + rows[:, 1]), axis=0)  # pair, then range (<< span)
         snr_all = rows[:, 2 + m]
         cov = (
@@ -421,6 +460,7 @@ class ParametricSensor:
         )
         bounds = [*np.searchsorted(rows[:, 0], self._pair_keys).tolist(), rows.shape[0]]
         origin = rows[:, 3 + m].astype(np.int64)
+        intensity = self._clutter_intensity(rows, cov, m)
         out = []
         for p, (t, r) in enumerate(self._pair_list):  # the formed pairs: a small fixed set
             if not active[r]:
@@ -432,8 +472,9 @@ class ParametricSensor:
                 rr = np.full(hi - lo, r)
                 var = self._azimuth_variance(plan, tt, rr, z[:, m], snr_all[lo:hi])
                 R = _append_block(cov[lo:hi], var)
+                rho = intensity[lo:hi] * self._doa_density[r]
             else:
-                z, R = rows[lo:hi, 1 : 1 + m], cov[lo:hi]
+                z, R, rho = rows[lo:hi, 1 : 1 + m], cov[lo:hi], intensity[lo:hi]
             out.append(
                 Detections(
                     tx=t,
@@ -445,11 +486,21 @@ class ParametricSensor:
                     snr=snr_all[lo:hi],
                     origin=origin[lo:hi],
                     measurement_names=self._names[r],
-                    gate_volume=self._gate_volume[p],
-                    clutter_density=self._clutter_density[p],
+                    clutter_intensity=rho,
+                    expected_false_alarms=self._expected_false[p],
                 )
             )
         return tuple(out)
+
+    def _clutter_intensity(self, rows: FloatArray, cov: FloatArray, m: int) -> FloatArray:
+        """``(n,)`` known clutter map at each row's measurement (module docstring, item 6); azimuth factor apart."""
+        pair = self._pair_of_key[rows[:, 0].astype(np.int64)]
+        b = np.clip((rows[:, 1] * self._bin_scale).astype(np.int64) + 1, 0, self._range_table.shape[1] - 1)
+        rho = self._range_table[pair, b]
+        if m == 2:
+            var = cov[:, 1, 1] + self._rdot_var
+            rho = rho * np.exp(-0.5 * rows[:, 2] ** 2 / var) / np.sqrt(2.0 * math.pi * var)
+        return rho
 
     def _covariances(self, waveform_of_row: np.ndarray, snr: FloatArray) -> FloatArray:
         """``(n, m, m)`` covariances of rows sent with different waveforms (a small fixed set)."""
@@ -496,6 +547,13 @@ class ParametricSensor:
             self._valid_plans.clear()
         self._valid_plans[id(plan)] = (plan, derived)
         return derived
+
+    def range_density(self, tx: int, rx: int) -> tuple[FloatArray, FloatArray]:
+        """The pair's clutter density in bistatic range: bin edges ``(n + 1,)`` [m], density ``(n,)`` [1/m]."""
+        p = int(self._pair_of_key[tx * self.n_rx + rx])
+        if p < 0:
+            raise ValueError(f"pair (tx={tx}, rx={rx}) is not a formed radar pair of {self.cfg.name!r}")
+        return self._range_edges, self._range_table[p, 1:-1]
 
     @property
     def expected_clutter(self) -> FloatArray:

@@ -81,8 +81,9 @@ class Detections:
         R: ``(n, m, m)`` measurement covariances.
         snr: ``(n,)`` linear E/N0 attached to each detection (true SNR for targets, apparent for false alarms).
         origin: ``(n,)`` index of the true target, -1 for clutter. For evaluation only: never for the tracker.
-        gate_volume: measurement-space volume of the pair's gate (range x range-rate x angle extents).
-        clutter_density: expected false detections per unit gate volume (the lambda of PDA).
+        clutter_intensity: ``(n,)`` the known clutter map at each measurement: expected false detections per unit
+            measurement-space volume (the rho_i of PDA / LMIPDA; 0 where no clutter can fall).
+        expected_false_alarms: expected number of false detections of the pair in a scan.
     """
 
     tx: int
@@ -94,8 +95,8 @@ class Detections:
     snr: FloatArray
     origin: IntArray
     measurement_names: tuple[str, ...]
-    gate_volume: float
-    clutter_density: float
+    clutter_intensity: FloatArray
+    expected_false_alarms: float
 
     def __len__(self) -> int:
         return int(self.z.shape[0])
