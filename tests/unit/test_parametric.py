@@ -141,8 +141,10 @@ def test_clutter_intensity_is_the_map_times_the_range_rate_density():
     sensor, _, out = run(cfg, 8, [ScanPlan.all_listening(0, 1, 2)])
     edges, dens = sensor.range_density(0, 0)
     d = next(x[0] for x in out if len(x[0]) > 3)
-    b = np.clip(np.searchsorted(edges, d.z[:, 0], side="right") - 1, 0, dens.size - 1)
-    inside = (d.z[:, 0] >= 0) & (d.z[:, 0] < edges[-1])
+    # chirp noise lies along the delay-Doppler ridge: the map is read at r - (R_rd / R_dd) rdot
+    r = d.z[:, 0] - d.R[:, 0, 1] / d.R[:, 1, 1] * d.z[:, 1]
+    b = np.clip(np.searchsorted(edges, r, side="right") - 1, 0, dens.size - 1)
+    inside = (r >= 0) & (r < edges[-1])
     var = d.R[:, 1, 1] + 30.0**2 / 3
     expected = np.where(inside, dens[b], 0.0) * np.exp(-0.5 * d.z[:, 1] ** 2 / var) / np.sqrt(2 * math.pi * var)
     np.testing.assert_allclose(d.clutter_intensity, expected, rtol=1e-9)

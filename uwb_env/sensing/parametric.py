@@ -77,39 +77,35 @@ class EpisodeGeometry:
     covered: BoolArray
 
 
+# Row layout of a detection inside the sensor (m = measurement dimension of the library):
+#   [pair index, z_0 .. z_{m-1}, azimuth, SNR, origin, clutter intensity, azimuth variance]
+def _columns(m: int) -> dict[str, int]:
+    return {"pair": 0, "z": 1, "az": 1 + m, "snr": 2 + m, "origin": 3 + m, "rho": 4 + m, "az_var": 5 + m, "n": 6 + m}
+
+
 @dataclass(frozen=True, slots=True)
 class EpisodeSensing:
-    """Geometry and pre-drawn randomness of one episode (see the module docstring).
+    """Everything a scan can return in one episode, for every waveform of the library (module docstring).
+
+    A detection's SNR, its detection decision, its noisy measurement and its clutter intensity depend only on
+    the pre-drawn randomness and on the waveform that lit it, so they are computed here, once per waveform; a scan
+    then only selects by plan. Memory is W x S x T x R x K rows for targets and W x N rows for false alarms.
 
     Attributes:
         geometry: the truth-dependent geometry.
-        fading_snr: ``(S, T, R, K)`` unit_snr x RCS factor (0 where not covered): SNR per unit radar constant.
-        det_offset, det_level: ``(S, T, R, K)`` the square-law test |sqrt(SNR) + n|^2 > V_T with n = a + j b
-            rewritten as |sqrt(SNR) + a| > sqrt(V_T - b^2): det_offset = a, det_level = sqrt(max(V_T - b^2, 0))
-            (-1 where noise alone crosses, +inf where the target is not covered).
-        noise: ``(S, 1 + m, T, R, K)`` standard normals: azimuth (1), measurement (m).
-        target_rows: ``(S, T, R, K, 4 + m)`` noise-free row templates of every possible target detection, in the
-            row layout of :meth:`ParametricSensor.sense` (SNR and azimuth columns left at 0).
-        unit_noise: ``(W, S, T, R, K, m)`` measurement noise at SNR = 1 for each waveform whose R scales as
-            1 / SNR, chol(R1_w) e (zeros for the others): a detection's noise is unit_noise / sqrt(SNR).
-        clutter_rows: ``(N, 4 + m)`` the false alarms that fall in their pair's gate, sorted by scan then pair,
-            in the row layout of :meth:`ParametricSensor.sense`: [pair key, measurement (m), azimuth, SNR,
-            origin = -1]; the SNR is the apparent one of noise over the threshold.
-        clutter_rx: ``(N,)`` their receiver index.
-        clutter_noise: ``(N, m)`` standard normals of their measurement noise (scaled by the plan's waveform).
+        target_rows: ``(W, S, T, R, K, 6 + m)`` every possible target detection in the row layout above.
+        target_hit: ``(W, S, T, R, K)`` the square-law decision |sqrt(SNR) + n|^2 > V_T (False where not covered).
+        clutter_rows: ``(W, N, 6 + m)`` the false alarms that fall in their pair's gate, sorted by scan then pair.
+        clutter_tx, clutter_rx: ``(N,)`` their nodes.
         clutter_start: ``(S + 1,)`` offsets of each scan's false alarms.
     """
 
     geometry: EpisodeGeometry
-    fading_snr: FloatArray
-    det_offset: FloatArray
-    det_level: FloatArray
-    noise: FloatArray
     target_rows: FloatArray
-    unit_noise: FloatArray
+    target_hit: BoolArray
     clutter_rows: FloatArray
+    clutter_tx: np.ndarray
     clutter_rx: np.ndarray
-    clutter_noise: FloatArray
     clutter_start: np.ndarray
 
 
@@ -180,6 +176,8 @@ class ParametricSensor:
         self._expected_false = [float(self._clutter_mean[t, r]) for t, r in self._pair_list]
         self._pair_of_key = np.full(self.n_tx * self.n_rx, -1, dtype=np.int64)
         self._pair_of_key[self._pair_keys] = np.arange(len(self._pair_list))
+        self._pair_of_tr = self._pair_of_key.reshape(self.n_tx, self.n_rx).astype(float)
+        self._pair_index = np.arange(len(self._pair_list), dtype=float)
         self._bin_scale = (len(self._range_edges) - 1) / self._range_edges[-1]
         self._rdot_var = cfg.sensing.clutter.range_rate_max_mps**2 / 3.0
         self._any_array = bool(lay.rx_has_array.any())
@@ -339,17 +337,31 @@ class ParametricSensor:
         return np.repeat(np.arange(counts.size), counts), x, y, u[3:]
 
     def new_episode(self, truth: Truth, rngs: RngStreams) -> EpisodeSensing:
-        """Geometry and all plan-independent draws of an episode, from the rcs, noise and clutter streams."""
+        """Geometry and all plan-independent draws of an episode (rcs, noise and clutter streams), per waveform."""
         lay, sens = self.layout, self.cfg.sensing
         geom = self._cached_geometry(truth)
         S, T, R, K = geom.unit_snr.shape
         m = self.library.measurement_dim
+        col = _columns(m)
+        W = len(self.library)
+        # Targets: RCS, detection noise (2), azimuth noise (1), measurement noise (m) for every cell.
         fluct = rcs_fluctuation(self.swerling, (S, T, R), rngs.rcs, self._swerling_w)
         fading = np.where(geom.covered, geom.unit_snr * fluct, 0.0)
         noise = rngs.noise.standard_normal((S, 3 + m, T, R, K))
         level2 = self.threshold - 0.5 * noise[:, 1] ** 2
-        level = np.where(level2 >= 0, np.sqrt(np.maximum(level2, 0.0)), -1.0)
+        level = np.where(geom.covered, np.where(level2 >= 0, np.sqrt(np.maximum(level2, 0.0)), -1.0), np.inf)
+        offset = _SQRT_HALF * noise[:, 0]
+        template = np.zeros((S, T, R, K, col["n"]))
+        template[..., col["pair"]] = self._pair_of_tr[None, :, :, None]
+        template[..., 1] = geom.bistatic_range
+        if m == 2:
+            template[..., 2] = geom.range_rate
+        template[..., col["origin"]] = np.arange(K)
+        e_t = np.moveaxis(noise[:, 3:], 1, -1).reshape(-1, m)
+        az_t = np.broadcast_to(geom.azimuth[:, None], (S, T, R, K)).reshape(-1)
+        n_az_t = noise[:, 2].reshape(-1)
 
+        # False alarms of every scan and pair, gated, with their own measurement and azimuth noise.
         key, x, y, u = self._draw_clutter(S, rngs.clutter)
         scan, pair = np.divmod(key, self.pairs.shape[0])
         c_t, c_r = self.pairs[pair, 0], self.pairs[pair, 1]
@@ -367,114 +379,133 @@ class ParametricSensor:
         c_range = np.sqrt(lt2) + np.sqrt(lr2)
         ok &= c_range - self.baseline[c_t, c_r] >= sens.blind_zone_excess_m
         idx = np.flatnonzero(ok)
-        rows = np.empty((idx.size, 4 + m))
-        rows[:, 0] = c_t[idx] * R + c_r[idx]
-        rows[:, 1] = c_range[idx]
+        n_c = idx.size
+        c_base = np.zeros((n_c, col["n"]))
+        c_base[:, col["pair"]] = pair[idx]
+        c_base[:, 1] = c_range[idx]
         if m == 2:
-            rows[:, 2] = (2.0 * u[1, idx] - 1.0) * sens.clutter.range_rate_max_mps
-        rows[:, 1 + m] = np.arctan2(dyr[idx], dxr[idx]) if self._any_doa else 0.0
-        rows[:, 2 + m] = self.threshold - np.log1p(-u[0, idx]) - 1.0  # V_T + Exp(1) minus the unit noise power
-        rows[:, 3 + m] = -1.0
+            c_base[:, 2] = (2.0 * u[1, idx] - 1.0) * sens.clutter.range_rate_max_mps
+        c_base[:, col["snr"]] = self.threshold - np.log1p(-u[0, idx]) - 1.0  # V_T + Exp(1) minus the unit noise
+        c_base[:, col["origin"]] = -1.0
+        c_e = rngs.clutter.standard_normal((n_c, m + 1))
+        c_az = np.arctan2(dyr[idx], dxr[idx]) if self._any_doa else np.zeros(n_c)
+        c_r, c_t = c_r[idx], c_t[idx]
+        r_t = np.broadcast_to(np.arange(R)[None, None, :, None], (S, T, R, K)).reshape(-1)
+        t_t = np.broadcast_to(np.arange(T)[None, :, None, None], (S, T, R, K)).reshape(-1)
+
+        target_rows = np.empty((W, *template.shape))
+        target_hit = np.empty((W, S, T, R, K), dtype=bool)
+        clutter_rows = np.empty((W, n_c, col["n"]))
+        for w in range(W):  # the waveform library: a small fixed set
+            snr = self.radar_constant[w][None, :, :, None] * fading
+            target_hit[w] = np.abs(np.sqrt(snr) + offset) > level
+            rows = template.reshape(-1, col["n"]).copy()
+            rows[:, col["snr"]] = snr.reshape(-1)
+            self._measure(rows, e_t, az_t, n_az_t, t_t, r_t, w, m)
+            target_rows[w] = rows.reshape(template.shape)
+            rows = c_base.copy()
+            self._measure(rows, c_e[:, :m], c_az, c_e[:, m], c_t, c_r, w, m)
+            clutter_rows[w] = rows
         return EpisodeSensing(
             geometry=geom,
-            fading_snr=fading,
-            det_offset=_SQRT_HALF * noise[:, 0],
-            det_level=np.where(geom.covered, level, np.inf),
-            noise=noise[:, 2:],
-            target_rows=self._target_row_templates(geom),
-            unit_noise=np.stack(
-                [
-                    np.zeros((S, T, R, K, m)) if L is None else np.moveaxis(noise[:, 3:], 1, -1) @ L.T
-                    for L in self._unit_chol
-                ]
-            ),
-            clutter_rows=rows,
-            clutter_noise=rngs.clutter.standard_normal((idx.size, m)),
-            clutter_rx=c_r[idx],
+            target_rows=target_rows,
+            target_hit=target_hit,
+            clutter_rows=clutter_rows,
+            clutter_tx=c_t,
+            clutter_rx=c_r,
             clutter_start=np.searchsorted(scan[idx], np.arange(S + 1)),
         )
 
-    def _target_row_templates(self, geom: EpisodeGeometry) -> FloatArray:
-        """``(S, T, R, K, 4 + m)``: [pair key, range, (range-rate), 0, 0, target index] for every detection."""
-        S, T, R, K = geom.unit_snr.shape
-        m = self.library.measurement_dim
-        rows = np.zeros((S, T, R, K, 4 + m))
-        rows[..., 0] = (np.arange(T)[:, None] * R + np.arange(R)[None, :])[None, :, :, None]
-        rows[..., 1] = geom.bistatic_range
-        if m == 2:
-            rows[..., 2] = geom.range_rate
-        rows[..., 3 + m] = np.arange(K)
-        return rows
+    def _measure(
+        self,
+        rows: FloatArray,
+        e: FloatArray,
+        az: FloatArray,
+        n_az: FloatArray,
+        tx: np.ndarray,
+        rx: np.ndarray,
+        w: int,
+        m: int,
+    ) -> None:
+        """Measure noise-free rows through waveform ``w`` (in place).
+
+        Adds the measurement noise and fills the azimuth, azimuth-variance and clutter-intensity columns;
+        ``e`` (n, m) and ``n_az`` (n,) are standard normals.
+        """
+        col = _columns(m)
+        snr = rows[:, col["snr"]]
+        safe = np.where(snr > 0, snr, 1.0)  # cells with no echo are never detected; keep their rows finite
+        wf = self.library[w]
+        L = self._unit_chol[w]
+        if L is not None:  # R = R1 / snr: noise chol(R1) e / sqrt(snr), lower-triangular products written out
+            scaled = e / np.sqrt(safe)[:, None]
+            for i in range(m):  # m <= 2 measurement components
+                rows[:, 1 + i] += scaled[:, : i + 1] @ L[i, : i + 1]
+            R1 = self._unit_cov[w]
+            ridge = R1[0, 1] / R1[1, 1] if m == 2 else 0.0
+            rdot_var = R1[1, 1] / safe if m == 2 else None
+        else:
+            cov = wf.covariance(safe)
+            rows[:, 1 : 1 + m] += np.einsum("nij,nj->ni", np.linalg.cholesky(cov), e)
+            ridge = cov[:, 0, 1] / cov[:, 1, 1] if m == 2 else 0.0
+            rdot_var = cov[:, 1, 1] if m == 2 else None
+        if self._any_doa:
+            doa = self._doa_rx[rx]
+            off = _wrap(az - self._boresight[rx])
+            var = azimuth_variance(
+                safe, self.layout.rx_n_elements[rx], self.layout.rx_spacing_m[rx], wf.wavelength_m, off
+            )
+            rows[:, col["az"]] = np.where(doa, _wrap(az + np.sqrt(np.where(doa, var, 0.0)) * n_az), 0.0)
+            rows[:, col["az_var"]] = np.where(doa, var, 0.0)
+        rows[:, col["rho"]] = self._clutter_intensity(rows, ridge, rdot_var) * self._doa_density[rx]
 
     # ----------------------------------------------------------------------------------------------------- scan
     def sense(self, episode: EpisodeSensing, k: int, plan: ScanPlan, time_s: float = 0.0) -> tuple[Detections, ...]:
         """Detections of every active formed pair in scan ``k``, ordered by (tx, rx); the plan is validated here.
 
-        All detections of all pairs are rows of one array -- [pair key, measurement (m), azimuth, SNR, origin] --
-        sorted once by (pair, range) and split per pair at the end.
+        Selects the scan's rows of the waveforms the plan sends, sorts them by (pair, range) and splits per pair.
         """
-        gamma, all_active, w0, single, waveform_of_tx = self._validate(plan)
+        _, all_active, w0, single, waveform_of_tx = self._validate(plan)
         m = self.library.measurement_dim
+        col = _columns(m)
         active = plan.active_rx
-        n = episode.noise[k]
-        geom = episode.geometry
-
-        # Targets: square-law detection at the scan's SNR (see EpisodeSensing.det_level), then noise.
-        snr = gamma * episode.fading_snr[k]
-        hit = np.abs(np.sqrt(snr) + episode.det_offset[k]) > episode.det_level[k]
-        t_i, r_i, k_i = np.nonzero(hit & active[None, :, None])
-        s_t = snr[t_i, r_i, k_i]
-        target_rows = episode.target_rows[k, t_i, r_i, k_i]  # a copy: fancy indexing
-        target_rows[:, 2 + m] = s_t
-        if single:  # R = R1 / snr, so chol(R) = chol(R1) / sqrt(snr): pre-scaled noise, no factorisation
-            target_rows[:, 1 : 1 + m] += episode.unit_noise[w0, k, t_i, r_i, k_i] / np.sqrt(s_t)[:, None]
-        else:
-            e = n[1 : 1 + m, t_i, r_i, k_i].T
-            cov_t = self._covariances(plan.waveform[t_i], s_t)
-            target_rows[:, 1 : 1 + m] += np.einsum("nij,nj->ni", np.linalg.cholesky(cov_t), e)
-        if self._any_doa:
-            az = geom.azimuth[k, r_i, k_i]
-            sd = np.sqrt(self._azimuth_variance(plan, t_i, r_i, az, s_t))
-            target_rows[:, 1 + m] = _wrap(az + sd * n[0, t_i, r_i, k_i])
-
-        # False alarms of this scan at the listening receivers, then one sort by (pair, range).
         a, b = episode.clutter_start[k], episode.clutter_start[k + 1]
-        clutter_rows, clutter_e = episode.clutter_rows[a:b], episode.clutter_noise[a:b]
+        if single:
+            hit = episode.target_hit[w0, k]
+            if not all_active:
+                hit = hit & active[None, :, None]
+            target_rows = episode.target_rows[w0, k][hit]
+            clutter_rows = episode.clutter_rows[w0, a:b]
+        else:  # each transmitter's echoes come from the waveform it sends
+            target_rows = np.concatenate(
+                [
+                    episode.target_rows[w, k, t][episode.target_hit[w, k, t] & active[:, None]]
+                    for t, w in enumerate(waveform_of_tx)
+                ]
+            )
+            wf_row = np.asarray(waveform_of_tx)[episode.clutter_tx[a:b]]
+            clutter_rows = episode.clutter_rows[wf_row, np.arange(a, b)]
         if not all_active:
-            keep = active[episode.clutter_rx[a:b]]
-            clutter_rows, clutter_e = clutter_rows[keep], clutter_e[keep]
+            clutter_rows = clutter_rows[active[episode.clutter_rx[a:b]]]
         rows = np.concatenate([target_rows, clutter_rows])
-        n_t = target_rows.shape[0]
-        s_c = rows[n_t:, 2 + m]
-        if single:  # false alarms are measured through the same waveform
-            rows[n_t:, 1 : 1 + m] += (clutter_e @ self._unit_chol[w0].T) / np.sqrt(s_c)[:, None]
-        else:
-            cov_c = self._covariances(plan.waveform[rows[n_t:, 0].astype(np.int64) // self.n_rx], s_c)
-            rows[n_t:, 1 : 1 + m] += np.einsum("nij,nj->ni", np.linalg.cholesky(cov_c), clutter_e)
         rows = rows.take(np.argsort(rows[:, 0] * _KEY_SPAN + rows[:, 1]), axis=0)  # pair, then range (<< span)
-        snr_all = rows[:, 2 + m]
+        snr = rows[:, col["snr"]]
         cov = (
-            self._unit_cov[w0][None] / snr_all[:, None, None]
+            self._unit_cov[w0][None] / snr[:, None, None]
             if single
-            else self._covariances(plan.waveform[rows[:, 0].astype(np.int64) // self.n_rx], snr_all)
+            else self._covariances(np.asarray(waveform_of_tx)[self.pairs[rows[:, 0].astype(np.int64), 0]], snr)
         )
-        bounds = [*np.searchsorted(rows[:, 0], self._pair_keys).tolist(), rows.shape[0]]
-        origin = rows[:, 3 + m].astype(np.int64)
-        intensity = self._clutter_intensity(rows, cov, m)
+        bounds = [*np.searchsorted(rows[:, 0], self._pair_index).tolist(), rows.shape[0]]
+        origin = rows[:, col["origin"]].astype(np.int64)
         out = []
         for p, (t, r) in enumerate(self._pair_list):  # the formed pairs: a small fixed set
             if not active[r]:
                 continue
             lo, hi = bounds[p], bounds[p + 1]
             if self._doa_rx[r]:
-                z = rows[lo:hi, 1 : 2 + m]
-                tt = np.full(hi - lo, t)
-                rr = np.full(hi - lo, r)
-                var = self._azimuth_variance(plan, tt, rr, z[:, m], snr_all[lo:hi])
-                R = _append_block(cov[lo:hi], var)
-                rho = intensity[lo:hi] * self._doa_density[r]
+                z, R = rows[lo:hi, 1 : 2 + m], _append_block(cov[lo:hi], rows[lo:hi, col["az_var"]])
             else:
-                z, R, rho = rows[lo:hi, 1 : 1 + m], cov[lo:hi], intensity[lo:hi]
+                z, R = rows[lo:hi, 1 : 1 + m], cov[lo:hi]
             out.append(
                 Detections(
                     tx=t,
@@ -483,22 +514,33 @@ class ParametricSensor:
                     time_s=time_s,
                     z=z,
                     R=R,
-                    snr=snr_all[lo:hi],
+                    snr=snr[lo:hi],
                     origin=origin[lo:hi],
                     measurement_names=self._names[r],
-                    clutter_intensity=rho,
+                    clutter_intensity=rows[lo:hi, col["rho"]],
                     expected_false_alarms=self._expected_false[p],
                 )
             )
         return tuple(out)
 
-    def _clutter_intensity(self, rows: FloatArray, cov: FloatArray, m: int) -> FloatArray:
-        """``(n,)`` known clutter map at each row's measurement (module docstring, item 6); azimuth factor apart."""
-        pair = self._pair_of_key[rows[:, 0].astype(np.int64)]
-        b = np.clip((rows[:, 1] * self._bin_scale).astype(np.int64) + 1, 0, self._range_table.shape[1] - 1)
-        rho = self._range_table[pair, b]
-        if m == 2:
-            var = cov[:, 1, 1] + self._rdot_var
+    def _clutter_intensity(
+        self, rows: FloatArray, ridge: FloatArray | float, rdot_var: FloatArray | None
+    ) -> FloatArray:
+        """``(n,)`` known clutter map at each row's measurement, azimuth factor apart (module docstring, item 6).
+
+        Args:
+            rows: detections in the sensor's row layout; ridge: R_rd / R_dd; rdot_var: R_dd ``(n,)`` (None for
+                range-only waveforms).
+
+        For chirps the measurement noise lies along the delay-Doppler ridge, so a false alarm's range error is
+        fixed by its range-rate error: the range map is read at the ridge-corrected range r - (R_rd / R_dd) rdot.
+        """
+        pair = rows[:, 0].astype(np.int64)
+        r = rows[:, 1] if rdot_var is None else rows[:, 1] - ridge * rows[:, 2]
+        b = (np.clip(r, -1.0, self._range_edges[-1]) * self._bin_scale).astype(np.int64) + 1
+        rho = self._range_table[pair, np.minimum(b, self._range_table.shape[1] - 1)]
+        if rdot_var is not None:
+            var = rdot_var + self._rdot_var
             rho = rho * np.exp(-0.5 * rows[:, 2] ** 2 / var) / np.sqrt(2.0 * math.pi * var)
         return rho
 
@@ -510,18 +552,6 @@ class ParametricSensor:
             sel = waveform_of_row == w
             cov[sel] = self.library[w].covariance(snr[sel])
         return cov
-
-    def _azimuth_variance(
-        self, plan: ScanPlan, t: np.ndarray, r: np.ndarray, az: FloatArray, snr: FloatArray
-    ) -> FloatArray:
-        lay = self.layout
-        return azimuth_variance(
-            snr,
-            lay.rx_n_elements[r],
-            lay.rx_spacing_m[r],
-            self._wavelength[plan.waveform[t]],
-            _wrap(az - self._boresight[r]),
-        )
 
     def _validate(self, plan: ScanPlan) -> tuple[FloatArray, bool, int, bool, list[int]]:
         """Validate a plan and derive what a scan needs from it, once.
