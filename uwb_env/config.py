@@ -542,17 +542,121 @@ class SensingConfig:
 
 
 @dataclass(frozen=True, slots=True)
-class TrackerConfig:
-    """Tracker knobs (filled out by the tracker issue): gate probability and existence thresholds."""
+class MotionModelConfig:
+    """One model of the tracker's (VS-)IMM: ``ncv``, ``nca`` or ``ct`` (seed 003 section 3.3).
 
-    gate_probability: float = 0.99
-    initial_existence: float = 0.2
-    confirm_existence: float = 0.9
-    terminate_existence: float = 0.05
-    max_speed_mps: float = 20.0
+    ``accel_noise_std_mps2`` is sigma_w of Q = sigma_w^2 G G^T (for ``nca``, the std of the acceleration
+    increment per scan); ``turn_rate_rps`` is the known rate of a ``ct`` model (positive = left).
+    """
+
+    name: str
+    kind: Literal["ncv", "nca", "ct"]
+    accel_noise_std_mps2: float = 0.5
+    turn_rate_rps: float = 0.0
 
     def __post_init__(self) -> None:
+        _name("MotionModelConfig", self.name)
+        _choice("MotionModelConfig", "kind", self.kind, ("ncv", "nca", "ct"))
+        _positive("MotionModelConfig", "accel_noise_std_mps2", self.accel_noise_std_mps2)
+        _finite("MotionModelConfig", "turn_rate_rps", self.turn_rate_rps)
+        if self.kind == "ct" and self.turn_rate_rps == 0:
+            _fail("MotionModelConfig", "turn_rate_rps", self.turn_rate_rps, "non-zero for a coordinated turn")
+
+
+@dataclass(frozen=True, slots=True)
+class ModelSetWindowConfig:
+    """VS-IMM: the active model set during scans ``first_scan .. last_scan`` (inclusive), seed 003 section V."""
+
+    first_scan: int
+    last_scan: int
+    models: tuple[str, ...]
+
+    def __post_init__(self) -> None:
+        _int_at_least("ModelSetWindowConfig", "first_scan", self.first_scan, 0)
+        _int_at_least("ModelSetWindowConfig", "last_scan", self.last_scan, self.first_scan)
+        if not isinstance(self.models, tuple) or not self.models:
+            _fail("ModelSetWindowConfig", "models", self.models, "a non-empty tuple of model names")
+
+
+_SEED003_TRACKER_MODELS = (
+    MotionModelConfig("ncv", "ncv", 0.5),
+    MotionModelConfig("nca", "nca", 0.3),
+    MotionModelConfig("ct_left", "ct", 0.5, math.pi / 20.0),
+    MotionModelConfig("ct_right", "ct", 0.5, -math.pi / 20.0),
+)
+# Seed 003's transition matrix over (NCV, NCA, CT-left, CT-right), rows "from"; its printed rows 3-4 sum to 1.09
+# and are read with 0.01 for 0.1 (see uwb_env.tracking.imm).
+_SEED003_TRANSITION = (
+    (0.99, 0.01, 0.0, 0.0),
+    (0.10, 0.70, 0.10, 0.10),
+    (0.0, 0.01, 0.99, 0.0),
+    (0.0, 0.01, 0.0, 0.99),
+)
+
+
+@dataclass(frozen=True, slots=True)
+class TrackerConfig:
+    """The VS-IMM / LMIPDA tracker (seed 003 section 4.2).
+
+    ``models`` with the row-stochastic ``transition`` (rows "from"); the active set is ``default_models`` except
+    in ``model_set_windows``. ``filter``: ``ukf`` (Julier-Uhlmann, alpha = 1, beta = 2, kappa = 0) or ``ekf``.
+    ``detection_probability`` is used when the tracker is given no sensor model. Existence: Markov survival
+    ``survival_probability`` per scan; new tracks start at ``initial_existence`` (the prior that a two-point
+    candidate is a target: low, since clutter forms several candidate pairs per scan), are confirmed at
+    ``confirm_existence`` and deleted below ``terminate_existence`` or when their position std exceeds
+    ``max_position_std_m``. Initiation: two-point differencing with the
+    velocity gate of seed 003 section 4.2.1 (``max_speed_mps``) from candidates whose position std is below
+    ``init_max_position_std_m``; new tracks get acceleration std ``initial_accel_std_mps2``. ``min_clutter_intensity`` floors rho_i (a clutter-free scene is a vanishing
+    clutter intensity). ``fixed_existence`` turns LMIPDA into PDA (existence 1).
+    """
+
+    models: tuple[MotionModelConfig, ...] = _SEED003_TRACKER_MODELS
+    transition: tuple[tuple[float, ...], ...] = _SEED003_TRANSITION
+    default_models: tuple[str, ...] = ("ncv", "nca")
+    model_set_windows: tuple[ModelSetWindowConfig, ...] = ()
+    filter: Literal["ukf", "ekf"] = "ukf"
+    gate_probability: float = 0.99
+    detection_probability: float = 0.9
+    survival_probability: float = 0.98
+    initial_existence: float = 0.005
+    confirm_existence: float = 0.99
+    terminate_existence: float = 0.001
+    max_speed_mps: float = 20.0
+    initial_accel_std_mps2: float = 1.0
+    init_max_position_std_m: float = 10.0
+    max_position_std_m: float = 50.0
+    min_clutter_intensity: float = 1e-15
+    fixed_existence: bool = False
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.models, tuple) or not self.models:
+            _fail("TrackerConfig", "models", self.models, "a non-empty tuple of MotionModelConfig")
+        names = [m.name for m in self.models]
+        if len(set(names)) != len(names):
+            _fail("TrackerConfig", "models", names, "uniquely named")
+        r = len(self.models)
+        rows = self.transition
+        if (
+            not isinstance(rows, tuple)
+            or len(rows) != r
+            or any(not isinstance(row, tuple) or len(row) != r for row in rows)
+        ):
+            _fail("TrackerConfig", "transition", rows, f"a {r} x {r} tuple of tuples (one row per model)")
+        for i, row in enumerate(rows):
+            if any((not math.isfinite(v)) or v < 0 for v in row) or abs(sum(row) - 1.0) > 1e-9:
+                _fail("TrackerConfig", f"transition[{i}]", row, "non-negative entries summing to 1 (rows = from)")
+        for group, sets in (
+            ("default_models", (self.default_models,)),
+            ("model_set_windows", tuple(w.models for w in self.model_set_windows)),
+        ):
+            for models in sets:
+                unknown = [m for m in models if m not in names]
+                if unknown or not models:
+                    _fail("TrackerConfig", group, models, f"a non-empty subset of the model names {names}")
+        _choice("TrackerConfig", "filter", self.filter, ("ukf", "ekf"))
         _in_range("TrackerConfig", "gate_probability", self.gate_probability, 0.0, 1.0, closed="(]")
+        _in_range("TrackerConfig", "detection_probability", self.detection_probability, 0.0, 1.0, closed="(]")
+        _in_range("TrackerConfig", "survival_probability", self.survival_probability, 0.0, 1.0, closed="(]")
         for f in ("initial_existence", "confirm_existence", "terminate_existence"):
             _in_range("TrackerConfig", f, getattr(self, f), 0.0, 1.0, closed="()")
         if not self.terminate_existence < self.initial_existence < self.confirm_existence:
@@ -563,6 +667,17 @@ class TrackerConfig:
                 "strictly between terminate_existence and confirm_existence",
             )
         _positive("TrackerConfig", "max_speed_mps", self.max_speed_mps)
+        _positive("TrackerConfig", "initial_accel_std_mps2", self.initial_accel_std_mps2)
+        _positive("TrackerConfig", "init_max_position_std_m", self.init_max_position_std_m)
+        _positive("TrackerConfig", "max_position_std_m", self.max_position_std_m)
+        _in_range("TrackerConfig", "min_clutter_intensity", self.min_clutter_intensity, 1e-300, 1.0, closed="(]")
+
+    def active_models(self, scan_index: int) -> tuple[str, ...]:
+        """The model set in force at a scan (the first matching window, else the default set)."""
+        for w in self.model_set_windows:
+            if w.first_scan <= scan_index <= w.last_scan:
+                return w.models
+        return self.default_models
 
 
 # ------------------------------------------------------------------------------------------------------- scenario
@@ -787,44 +902,64 @@ def load_yaml(path: str | Path) -> ScenarioConfig:
 
 
 # ------------------------------------------------------------------------------------------------------ overrides
-def _replace_path(obj: Any, keys: list[str], value: Any, where: str) -> Any:
-    key, rest = keys[0], keys[1:]
-    here = f"{where}.{key}" if where else key
+def _apply_tree(obj: Any, tree: Mapping[str, Any], where: str) -> Any:
+    """Apply a nested mapping of changes to a config (or tuple of configs), one ``replace`` per node."""
     if isinstance(obj, tuple):
-        if not key.lstrip("-").isdigit() or not -len(obj) <= int(key) < len(obj):
-            raise KeyError(f"{here}: index {key!r} out of range for a tuple of {len(obj)} items")
-        i = int(key) % len(obj)
-        if not rest:
-            item_type = type(obj[i]) if dataclasses.is_dataclass(obj[i]) else Any
-            new_item = _convert(item_type, value, here) if item_type is not Any else value
-        else:
-            new_item = _replace_path(obj[i], rest, value, here)
-        return (*obj[:i], new_item, *obj[i + 1 :])
+        items = list(obj)
+        for key, value in tree.items():
+            here = f"{where}.{key}" if where else key
+            if not key.lstrip("-").isdigit() or not -len(obj) <= int(key) < len(obj):
+                raise KeyError(f"{here}: index {key!r} out of range for a tuple of {len(obj)} items")
+            i = int(key) % len(obj)
+            if isinstance(value, Mapping) and dataclasses.is_dataclass(items[i]):
+                items[i] = _apply_tree(items[i], value, here)
+            else:
+                items[i] = _convert(type(items[i]), value, here) if dataclasses.is_dataclass(items[i]) else value
+        return tuple(items)
     if not dataclasses.is_dataclass(obj):
-        raise KeyError(f"{here}: {where or 'config'} is not a config and has no field {key!r}")
+        raise KeyError(f"{where}: {where or 'config'} is not a config and has no fields {sorted(tree)}")
     names = [f.name for f in dataclasses.fields(obj)]
-    if key not in names:
-        close = difflib.get_close_matches(key, names, n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise KeyError(f"{here}: unknown field {key!r} of {type(obj).__name__}{hint}; allowed: {names}")
-    current = getattr(obj, key)
-    if rest:
-        new = _replace_path(current, rest, value, here)
-    elif isinstance(value, Mapping) and dataclasses.is_dataclass(current) and not isinstance(current, type):
-        new = current
-        for k, v in value.items():
-            new = _replace_path(new, [k], v, here)
-    else:
-        new = _convert(typing.get_type_hints(type(obj))[key], value, here)
-    return dataclasses.replace(obj, **{key: new})
+    hints = typing.get_type_hints(type(obj))
+    changes = {}
+    for key, value in tree.items():
+        here = f"{where}.{key}" if where else key
+        if key not in names:
+            close = difflib.get_close_matches(key, names, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise KeyError(f"{here}: unknown field {key!r} of {type(obj).__name__}{hint}; allowed: {names}")
+        current = getattr(obj, key)
+        nested = dataclasses.is_dataclass(current) or isinstance(current, tuple)
+        if isinstance(value, Mapping) and nested and not isinstance(current, type):
+            changes[key] = _apply_tree(current, value, here)
+        else:
+            changes[key] = _convert(hints[key], value, here)
+    return dataclasses.replace(obj, **changes)
+
+
+def _as_tree(overrides: Mapping[str, Any]) -> dict[str, Any]:
+    """Dotted keys (and nested mappings) -> one nested mapping."""
+    tree: dict[str, Any] = {}
+    for dotted, value in overrides.items():
+        keys = dotted.split(".")
+        node = tree
+        for k in keys[:-1]:
+            child = node.get(k)
+            if not isinstance(child, dict):
+                child = node[k] = {}
+            node = child
+        leaf = keys[-1]
+        if isinstance(value, Mapping) and isinstance(node.get(leaf), dict):
+            node[leaf].update(_as_tree(value))
+        else:
+            node[leaf] = _as_tree(value) if isinstance(value, Mapping) else value
+    return tree
 
 
 def apply_overrides(cfg: Any, overrides: Mapping[str, Any]) -> Any:
     """Return ``cfg`` with dotted-path overrides applied and re-validated.
 
     Example: ``apply_overrides(cfg, {"sensing.clutter.density_per_m2": 0.0, "receivers.1.noise_figure_db": 6})``.
-    A value that is a mapping updates a nested config field by field.
+    A value that is a mapping updates a nested config field by field. All changes to one config are applied
+    together, so overrides that are only valid jointly (e.g. two existence thresholds) work.
     """
-    for dotted, value in overrides.items():
-        cfg = _replace_path(cfg, dotted.split("."), value, "")
-    return cfg
+    return _apply_tree(cfg, _as_tree(overrides), "") if overrides else cfg

@@ -15,6 +15,11 @@ Our choices (the seed does not give them):
     * Building footprints (opaque), the vegetation points, the array boresights (130 deg, +-50 deg view),
       peak power 1 W, noise figure 5 dB, Swerling I vehicles of 10 m^2, Pfa 1e-4, a blind zone of one range cell
       (c / B = 7.5 m), 25 pulses per scan (0.25 s / 10 ms), half of the clutter around the vegetation.
+    * The receivers' arrays also measure the direction of arrival (``measure_doa``): seed 003 gives each receiver a
+      3-element array but measures range and range-rate only; with the azimuth a single detection locates a target,
+      which the tracker's initiation needs with two receivers.
+    * Tracker: seed 003's VS-IMM sets ({NCA, CT-left, CT-right} for scans 20-100, {NCA, NCV} otherwise) and its
+      transition matrix (read as row-stochastic, see ``uwb_env.tracking.imm``).
 """
 
 from __future__ import annotations
@@ -30,8 +35,10 @@ from uwb_env.config import (
     ReceiverConfig,
     ScenarioConfig,
     SegmentedTrajectoryConfig,
+    ModelSetWindowConfig,
     SensingConfig,
     TargetConfig,
+    TrackerConfig,
     TransmitterConfig,
     UniformLinearArrayConfig,
     WallConfig,
@@ -123,11 +130,16 @@ def urban_intersection() -> ScenarioConfig:
         n_scans=140,
         walls=walls,
         clutter_points_m=_vegetation(),
+        tracker=TrackerConfig(
+            default_models=("nca", "ncv"),
+            model_set_windows=(ModelSetWindowConfig(20, 100, ("nca", "ct_left", "ct_right")),),
+        ),
         sensing=SensingConfig(
             scan_period_s=0.25,
             false_alarm_probability=1e-4,
             max_range_m=300.0,
             blind_zone_excess_m=7.5,
+            measure_doa=True,
             clutter=ClutterConfig(
                 density_per_m2=2.5e-4, discrete_fraction=0.5, discrete_spread_m=3.0, range_rate_max_mps=30.0
             ),

@@ -17,9 +17,10 @@ For every transmitter-receiver pair and target in a scan:
    +-``range_rate_max_mps``, and they are measured through the same waveform as targets (noise of R at their
    apparent SNR), so no statistic but the likelihood tells a false alarm from a target;
 6. every detection carries ``clutter_intensity``, the known clutter map in measurement space at its value (the
-   rho_i of PDA / LMIPDA): the pair's bistatic-range density of false alarms (quadrature over the area and the
-   scatterers, precomputed) x the density of a false alarm's measured range-rate, N(0, R_dd + rdot_max^2 / 3)
-   (uniform truth plus measurement noise) x 1 / (2 x field of view) for azimuth.
+   rho_i of PDA / LMIPDA): the pair's density of false alarms in bistatic range -- or, for array receivers that
+   measure azimuth, in (range, azimuth), broadened by the direction-finding noise -- precomputed by quadrature
+   over the area and the scatterers, x the density of a false alarm's measured range-rate,
+   N(0, R_dd + rdot_max^2 / 3) (uniform truth plus measurement noise).
 
 A target is not detected by a pair when it is not alive, beyond ``max_range_m`` from either node, inside the blind
 zone (seed 000 section IV-G), hidden by an opaque wall, or outside the array's field of view.
@@ -47,7 +48,7 @@ from uwb_env.constants import SPEED_OF_LIGHT_MPS
 from uwb_env.rng import RngStreams
 from uwb_env.scene.layout import SceneLayout
 from uwb_env.scene.truth import Truth
-from uwb_env.sensing.pd import threshold_from_pfa
+from uwb_env.sensing.pd import detection_probability, threshold_from_pfa
 from uwb_env.sensing.records import Detections, ScanPlan
 from uwb_env.typing import BoolArray, FloatArray
 from uwb_env.units import dbm_to_watts
@@ -169,6 +170,7 @@ class ParametricSensor:
         names = list(self.library.measurement_names)
         self._doa_rx = lay.rx_has_array & self.use_doa
         self._names = {r: tuple(names + (["azimuth"] if self._doa_rx[r] else [])) for r in range(self.n_rx)}
+        self._boresight = np.nan_to_num(lay.rx_boresight_rad)
         self._clutter_mean, self._range_table = self._clutter_statistics()
         # Per-scan constants, precomputed for the hot path.
         self._pair_list = [tuple(p) for p in self.pairs.tolist()]
@@ -179,10 +181,12 @@ class ParametricSensor:
         self._pair_of_tr = self._pair_of_key.reshape(self.n_tx, self.n_rx).astype(float)
         self._pair_index = np.arange(len(self._pair_list), dtype=float)
         self._bin_scale = (len(self._range_edges) - 1) / self._range_edges[-1]
+        self._az_r_scale = (len(self._az_range_edges) - 1) / self._az_range_edges[-1]
+        self._az_scale = (len(self._az_edges) - 1) / (2.0 * math.pi)
+        self._m = self.library.measurement_dim
         self._rdot_var = cfg.sensing.clutter.range_rate_max_mps**2 / 3.0
         self._any_array = bool(lay.rx_has_array.any())
         self._any_doa = bool(self._doa_rx.any())
-        self._boresight = np.nan_to_num(lay.rx_boresight_rad)
         self._fov = np.where(lay.rx_has_array, np.nan_to_num(lay.rx_fov_rad), np.inf)
         self._wavelength = np.array([w.wavelength_m for w in self.library.waveforms])
         self._tx_index = np.arange(self.n_tx)
@@ -192,7 +196,6 @@ class ParametricSensor:
         self._geometry_cache: tuple[FloatArray, BoolArray, EpisodeGeometry] | None = None
         self._valid_plans: dict[int, tuple[ScanPlan, tuple[FloatArray, bool, int, bool, list[int]]]] = {}
         self._bx, self._by = np.cos(self._boresight), np.sin(self._boresight)
-        self._doa_density = np.where(self._doa_rx, 1.0 / (2.0 * np.minimum(self._fov, math.pi)), 1.0)
         self._rx_x, self._rx_y = lay.rx_pos[:, 0].copy(), lay.rx_pos[:, 1].copy()
         self._cos_fov = np.cos(np.minimum(self._fov, math.pi))
         self._unit_chol = [None if c is None else np.linalg.cholesky(c) for c in self._unit_cov]
@@ -300,7 +303,51 @@ class ParametricSensor:
             hist, _ = np.histogram(lt[t, sel] + lr[r, sel], bins=edges, weights=w[sel])
             table[p, 1:-1] = hist / np.diff(edges)
             mean[t, r] = w[sel].sum()
+        self._az_tables = self._azimuth_range_tables(pts, w, in_gate, lt, lr)
         return mean, table
+
+    def _azimuth_range_tables(
+        self,
+        pts: FloatArray,
+        w: FloatArray,
+        in_gate: BoolArray,
+        lt: FloatArray,
+        lr: FloatArray,
+        n_range: int = 300,
+        n_az: int = 360,
+    ) -> dict[int, FloatArray]:
+        """Clutter maps in (bistatic range, azimuth) of the pairs whose receiver measures azimuth.
+
+        The same quadrature histogrammed in range x measured azimuth [false alarms / (m rad)], then broadened
+        along azimuth by the direction-finding noise of a false alarm: the ULA CRLB at its mean apparent SNR
+        (V_T) and at each angle (the library's first carrier). Returns {pair index: ``(n_range + 2, n_az + 2)``},
+        zero-padded; sets ``self._az_range_edges`` and ``self._az_edges``.
+        """
+        lay, sens = self.layout, self.cfg.sensing
+        r_edges = np.linspace(0.0, 2.0 * sens.max_range_m, n_range + 1)
+        a_edges = np.linspace(-math.pi, math.pi, n_az + 1)
+        self._az_range_edges, self._az_edges = r_edges, a_edges
+        centres = 0.5 * (a_edges[1:] + a_edges[:-1])
+        tables = {}
+        for p, (t, r) in enumerate(self.pairs.tolist()):  # formed pairs with a DOA receiver, at construction only
+            if not self._doa_rx[r]:
+                continue
+            sel = in_gate[t, r]
+            az = np.arctan2(pts[sel, 1] - lay.rx_pos[r, 1], pts[sel, 0] - lay.rx_pos[r, 0])
+            hist, _, _ = np.histogram2d(lt[t, sel] + lr[r, sel], az, bins=(r_edges, a_edges), weights=w[sel])
+            off = _wrap(centres - self._boresight[r])
+            var = azimuth_variance(
+                np.full(n_az, self.threshold),
+                lay.rx_n_elements[r],
+                lay.rx_spacing_m[r],
+                self.library[0].wavelength_m,
+                off,
+            )
+            d = _wrap(centres[:, None] - centres[None, :])  # (measured j, true k)
+            kernel = np.exp(-0.5 * d**2 / var[None, :]) / np.sqrt(2.0 * math.pi * var[None, :])
+            dens = (hist / np.diff(r_edges)[:, None]) @ kernel.T  # per metre and per radian
+            tables[p] = np.pad(dens, 1)
+        return tables
 
     def _in_gate(self, pts: FloatArray) -> BoolArray:
         """``(T, R, N)`` whether points lie in each pair's coverage gate (range limits, blind zone, view)."""
@@ -457,7 +504,7 @@ class ParametricSensor:
             )
             rows[:, col["az"]] = np.where(doa, _wrap(az + np.sqrt(np.where(doa, var, 0.0)) * n_az), 0.0)
             rows[:, col["az_var"]] = np.where(doa, var, 0.0)
-        rows[:, col["rho"]] = self._clutter_intensity(rows, ridge, rdot_var) * self._doa_density[rx]
+        rows[:, col["rho"]] = self._clutter_intensity(rows, ridge, rdot_var)
 
     # ----------------------------------------------------------------------------------------------------- scan
     def sense(self, episode: EpisodeSensing, k: int, plan: ScanPlan, time_s: float = 0.0) -> tuple[Detections, ...]:
@@ -539,6 +586,15 @@ class ParametricSensor:
         r = rows[:, 1] if rdot_var is None else rows[:, 1] - ridge * rows[:, 2]
         b = (np.clip(r, -1.0, self._range_edges[-1]) * self._bin_scale).astype(np.int64) + 1
         rho = self._range_table[pair, np.minimum(b, self._range_table.shape[1] - 1)]
+        for p, table in self._az_tables.items():  # pairs with a DOA receiver: their (range, azimuth) map
+            sel = pair == p
+            if sel.any():
+                rs = np.clip(r[sel], -1.0, self._az_range_edges[-1])
+                br = np.minimum((rs * self._az_r_scale).astype(np.int64) + 1, table.shape[0] - 1)
+                ba = np.minimum(
+                    ((rows[sel, 1 + self._m] + math.pi) * self._az_scale).astype(np.int64) + 1, table.shape[1] - 1
+                )
+                rho[sel] = table[br, ba]
         if rdot_var is not None:
             var = rdot_var + self._rdot_var
             rho = rho * np.exp(-0.5 * rows[:, 2] ** 2 / var) / np.sqrt(2.0 * math.pi * var)
@@ -577,6 +633,27 @@ class ParametricSensor:
             self._valid_plans.clear()
         self._valid_plans[id(plan)] = (plan, derived)
         return derived
+
+    def detection_probability_at(
+        self, tx: int, rx: int, positions: FloatArray, waveform: int, rcs_m2: float = 1.0, swerling: int = 1
+    ) -> FloatArray:
+        """Pd ``(N,)`` of pair (tx, rx) with ``waveform`` for targets at ``positions`` (N, 2) [m].
+
+        The sensor model a tracker or a lookahead may use: the radar equation with walls, range limits, blind zone
+        and field of view at the given positions, for an assumed mean RCS and Swerling case.
+        """
+        lay, sens, ch = self.layout, self.cfg.sensing, self.cfg.channel
+        pos = np.asarray(positions, dtype=float).reshape(-1, 2)
+        t_pos, r_pos = lay.tx_pos[tx : tx + 1], lay.rx_pos[rx : rx + 1]
+        lt, lr = leg_lengths(t_pos, r_pos, pos)
+        loss, _ = pair_obstruction(t_pos, r_pos, pos, lay.wall_start, lay.wall_end, lay.wall_loss_db, lay.wall_delay_s)
+        in_view, _, _ = in_field_of_view(r_pos, lay.rx_boresight_rad[rx : rx + 1], lay.rx_fov_rad[rx : rx + 1], pos)
+        ok = (lt[0] <= sens.max_range_m) & (lr[0] <= sens.max_range_m) & in_view[0] & np.isfinite(loss[0, 0])
+        ok &= lt[0] + lr[0] - self.baseline[tx, rx] >= sens.blind_zone_excess_m
+        product = np.maximum(lt[0] * lr[0], 1e-12) / ch.reference_distance_m**2
+        snr = self.radar_constant[waveform, tx, rx] * rcs_m2 / product**ch.path_loss_exponent
+        snr = snr * 10.0 ** (-np.where(ok, loss[0, 0], 0.0) / 10.0)
+        return np.where(ok, detection_probability(snr, sens.false_alarm_probability, swerling), 0.0)
 
     def range_density(self, tx: int, rx: int) -> tuple[FloatArray, FloatArray]:
         """The pair's clutter density in bistatic range: bin edges ``(n + 1,)`` [m], density ``(n,)`` [1/m]."""

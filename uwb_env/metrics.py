@@ -1,0 +1,115 @@
+r"""Tracking metrics against truth: per-scan assignment, OSPA, run-level track statistics.
+
+Per scan, confirmed tracks are assigned to alive targets by the Hungarian algorithm on position distance, with a
+gate ``association_distance_m`` (a pair farther apart is not a match). Over a run:
+
+* a target is **held** in a scan when a confirmed track is assigned to it; its coverage is the fraction of its
+  alive scans in which it is held, and it is **confirmed in the run** when it is held in at least one scan;
+* a confirmed track is **false** when it is assigned to a target in fewer than half of the scans it is confirmed;
+* a target keeps its **identity** across a window when the same track id holds it before and after (the most
+  frequent id on each side) and no other target is held by that id.
+
+OSPA (Schuhmacher, Vo and Vo 2008) of order p with cut-off c between the confirmed tracks and the targets.
+"""
+
+from __future__ import annotations
+
+from collections import Counter, defaultdict
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from uwb_env.typing import BoolArray, FloatArray, IntArray
+
+
+def assign(track_pos: FloatArray, target_pos: FloatArray, gate_m: float) -> tuple[IntArray, IntArray]:
+    """Hungarian assignment of tracks ``(N, 2)`` to targets ``(K, 2)`` within ``gate_m``: (track idx, target idx)."""
+    if track_pos.shape[0] == 0 or target_pos.shape[0] == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    d = np.linalg.norm(track_pos[:, None] - target_pos[None], axis=-1)
+    i, j = linear_sum_assignment(np.where(d <= gate_m, d, 1e12))
+    ok = d[i, j] <= gate_m
+    return i[ok], j[ok]
+
+
+def ospa(track_pos: FloatArray, target_pos: FloatArray, cutoff_m: float, order: float = 2.0) -> float:
+    """OSPA distance [m] between two finite sets of positions (0 when both are empty)."""
+    m, n = track_pos.shape[0], target_pos.shape[0]
+    if m == 0 and n == 0:
+        return 0.0
+    if m == 0 or n == 0:
+        return float(cutoff_m)
+    d = np.minimum(np.linalg.norm(track_pos[:, None] - target_pos[None], axis=-1), cutoff_m) ** order
+    i, j = linear_sum_assignment(d)
+    cost = d[i, j].sum() + cutoff_m**order * abs(m - n)
+    return float((cost / max(m, n)) ** (1.0 / order))
+
+
+@dataclass(slots=True)
+class TrackAccounting:
+    """Accumulates, scan by scan, the assignment of confirmed tracks to targets (one run)."""
+
+    n_targets: int
+    gate_m: float
+    held: list[list[int]] = field(default_factory=list)  # per scan, per target: track id or -1
+    alive: list[BoolArray] = field(default_factory=list)
+    errors: list[FloatArray] = field(default_factory=list)  # per scan: position errors of held targets
+    confirmed_scans: dict[int, int] = field(default_factory=lambda: defaultdict(int))
+    matched_scans: dict[int, int] = field(default_factory=lambda: defaultdict(int))
+
+    def add(
+        self, ids: IntArray, confirmed: BoolArray, track_pos: FloatArray, target_pos: FloatArray, alive: BoolArray
+    ) -> tuple[IntArray, IntArray]:
+        """Record one scan; returns the (confirmed track idx, target idx) matches."""
+        c = np.flatnonzero(confirmed)
+        live = np.flatnonzero(alive)
+        i, j = assign(track_pos[c], target_pos[live], self.gate_m)
+        row = [-1] * self.n_targets
+        for a, b in zip(c[i].tolist(), live[j].tolist(), strict=True):  # matches: at most K per scan
+            row[b] = int(ids[a])
+        self.held.append(row)
+        self.alive.append(alive.copy())
+        self.errors.append(np.linalg.norm(track_pos[c[i]] - target_pos[live[j]], axis=-1))
+        for tid in ids[c].tolist():
+            self.confirmed_scans[tid] += 1
+        for tid in ids[c[i]].tolist():
+            self.matched_scans[tid] += 1
+        return c[i], live[j]
+
+    def coverage(self) -> FloatArray:
+        """``(K,)`` fraction of each target's alive scans in which a confirmed track holds it."""
+        held = np.array(self.held) >= 0
+        alive = np.array(self.alive)
+        return held.sum(axis=0) / np.maximum(alive.sum(axis=0), 1)
+
+    def confirmed_targets(self) -> BoolArray:
+        """``(K,)`` whether each target was held by a confirmed track in at least one scan."""
+        return (np.array(self.held) >= 0).any(axis=0)
+
+    def false_tracks(self) -> int:
+        """Confirmed tracks matched to a target in fewer than half of their confirmed scans."""
+        return sum(1 for tid, n in self.confirmed_scans.items() if self.matched_scans.get(tid, 0) < 0.5 * n)
+
+    def identity_kept(self, before: slice, after: slice) -> BoolArray:
+        """``(K,)`` same majority track id holding each target before and after, and ids distinct across targets."""
+        held = np.array(self.held)
+        out = np.zeros(self.n_targets, bool)
+        ids_after = []
+        for k in range(self.n_targets):  # targets: a small set
+            b = [i for i in held[before, k] if i >= 0]
+            a = [i for i in held[after, k] if i >= 0]
+            if b and a:
+                ib, ia = Counter(b).most_common(1)[0][0], Counter(a).most_common(1)[0][0]
+                out[k] = ib == ia
+                ids_after.append(ia)
+            else:
+                ids_after.append(-1 - k)
+        if len(set(ids_after)) < len(ids_after):
+            out[:] = False
+        return out
+
+    def rmse(self) -> float:
+        """Position RMSE [m] over every held (target, scan)."""
+        e = np.concatenate(self.errors) if self.errors else np.zeros(0)
+        return float(np.sqrt(np.mean(e**2))) if e.size else float("nan")

@@ -1,0 +1,154 @@
+r"""Batched filter kernels (arrays in, arrays out, no state), over any leading batch axes.
+
+Shapes: states ``x (..., n)``, covariances ``P (..., n, n)``, measurements ``(..., m)``; row-vector convention.
+
+Prediction is exact Kalman (the motion models are linear). A nonlinear measurement is summarised by its predicted
+mean ``z_hat``, its covariance without the noise ``S0`` and the state-measurement cross-covariance ``C``, from
+either the unscented transform (Julier-Uhlmann sigma points, seed 003 section 4.2.3) or the EKF linearisation.
+Updates use the Joseph form with the (statistically) linearised H = C^T P^-1, so every term of the updated
+covariance is positive semi-definite whatever the gain: for the EKF H is the Jacobian and this is the textbook
+Joseph form; for the UKF it equals P - K S K^T up to the UT's own approximation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from uwb_env.tracking.measurement import measure, wrap_residual
+from uwb_env.typing import FloatArray
+
+
+def symmetrise(P: FloatArray) -> FloatArray:
+    """(P + P^T) / 2 over the last two axes."""
+    return 0.5 * (P + np.swapaxes(P, -1, -2))
+
+
+def kf_predict(x: FloatArray, P: FloatArray, F: FloatArray, Q: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Kalman prediction: x F^T, F P F^T + Q; F and Q broadcast against the batch axes of x (..., n), P (..., n, n)."""
+    xp = np.einsum("...ij,...j->...i", F, x)
+    Pp = F @ P @ np.swapaxes(F, -1, -2) + Q
+    return xp, symmetrise(Pp)
+
+
+@dataclass(frozen=True, slots=True)
+class UnscentedWeights:
+    """Scaled unscented transform weights (Julier-Uhlmann; alpha = 1, beta = 2, kappa = 0 by default).
+
+    With alpha = 1 and kappa = 0 the central mean weight is 0 and every covariance weight is >= 0, so the
+    transformed covariance is always positive semi-definite (the original kappa = 3 - n is negative for n = 6).
+    """
+
+    n: int
+    alpha: float = 1.0
+    beta: float = 2.0
+    kappa: float = 0.0
+
+    @property
+    def lam(self) -> float:
+        """lambda = alpha^2 (n + kappa) - n."""
+        return self.alpha**2 * (self.n + self.kappa) - self.n
+
+    @property
+    def mean(self) -> FloatArray:
+        """``(2n + 1,)`` mean weights."""
+        w = np.full(2 * self.n + 1, 0.5 / (self.n + self.lam))
+        w[0] = self.lam / (self.n + self.lam)
+        return w
+
+    @property
+    def cov(self) -> FloatArray:
+        """``(2n + 1,)`` covariance weights."""
+        w = self.mean.copy()
+        w[0] += 1.0 - self.alpha**2 + self.beta
+        return w
+
+
+def sigma_points(x: FloatArray, P: FloatArray, weights: UnscentedWeights) -> FloatArray:
+    """``(..., 2n + 1, n)`` sigma points x, x +- sqrt(n + lambda) L_i, L the Cholesky factor of P."""
+    n = x.shape[-1]
+    L = np.linalg.cholesky(P) * np.sqrt(n + weights.lam)
+    Lt = np.swapaxes(L, -1, -2)  # rows are the columns of L
+    return np.concatenate([x[..., None, :], x[..., None, :] + Lt, x[..., None, :] - Lt], axis=-2)
+
+
+def _circular_mean(z: FloatArray, w: FloatArray, angular: np.ndarray) -> FloatArray:
+    zm = np.einsum("k,...km->...m", w, z)
+    if angular.any():
+        s = np.einsum("k,...km->...m", w, np.sin(z[..., angular]))
+        c = np.einsum("k,...km->...m", w, np.cos(z[..., angular]))
+        zm[..., angular] = np.arctan2(s, c)
+    return zm
+
+
+def ukf_moments(
+    names: tuple[str, ...],
+    x: FloatArray,
+    P: FloatArray,
+    tx: FloatArray,
+    rx: FloatArray,
+    weights: UnscentedWeights,
+    angular: np.ndarray,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Unscented ``(z_hat (..., m), S0 (..., m, m), C (..., n, m))`` of the named measurement."""
+    chi = sigma_points(x, P, weights)
+    Z, _ = measure(names, chi, tx, rx)
+    z_hat = _circular_mean(Z, weights.mean, angular)
+    dZ = wrap_residual(Z - z_hat[..., None, :], angular)
+    dX = chi - x[..., None, :]
+    wc = weights.cov
+    S0 = np.einsum("k,...ki,...kj->...ij", wc, dZ, dZ)
+    C = np.einsum("k,...ki,...kj->...ij", wc, dX, dZ)
+    return z_hat, symmetrise(S0), C
+
+
+def ekf_moments(
+    names: tuple[str, ...], x: FloatArray, P: FloatArray, tx: FloatArray, rx: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Linearised ``(z_hat, S0 = H P H^T, C = P H^T)`` of the named measurement."""
+    z_hat, H = measure(names, x, tx, rx)
+    C = P @ np.swapaxes(H, -1, -2)
+    return z_hat, symmetrise(H @ C), C
+
+
+def joseph_update(
+    x: FloatArray, P: FloatArray, C: FloatArray, S0: FloatArray, R: FloatArray, nu: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Single-measurement update in Joseph form with H = C^T P^-1.
+
+    Args:
+        x (..., n), P (..., n, n), C (..., n, m), S0 (..., m, m), R (..., m, m), nu (..., m) innovation.
+
+    Returns:
+        updated x (..., n) and P (..., n, n); K = C (S0 + R)^-1.
+    """
+    S = S0 + R
+    K = np.swapaxes(np.linalg.solve(S, np.swapaxes(C, -1, -2)), -1, -2)  # C S^-1 (S symmetric)
+    H = np.swapaxes(np.linalg.solve(P, C), -1, -2)  # C^T P^-1 (P symmetric)
+    n = x.shape[-1]
+    A = np.eye(n) - K @ H
+    Pu = A @ P @ np.swapaxes(A, -1, -2) + K @ R @ np.swapaxes(K, -1, -2)
+    return x + np.einsum("...ij,...j->...i", K, nu), symmetrise(Pu)
+
+
+def mixture_reduce(weights: FloatArray, x: FloatArray, P: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Moment-match a Gaussian mixture over axis -1 of ``weights (..., J)``; x (..., J, n), P (..., J, n, n).
+
+    P = sum_j w_j (P_j + (x_j - xbar)(x_j - xbar)^T): each term is PSD (the PDA "spread of innovations" term is
+    the second part).
+    """
+    xbar = np.einsum("...j,...jn->...n", weights, x)
+    d = x - xbar[..., None, :]
+    Pm = np.einsum("...j,...jab->...ab", weights, P) + np.einsum("...j,...ja,...jb->...ab", weights, d, d)
+    return xbar, symmetrise(Pm)
+
+
+def gaussian_log_likelihood(nu: FloatArray, S: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """``(log N(nu; 0, S), d^2)`` for innovations nu (..., m), S (..., m, m), via Cholesky."""
+    L = np.linalg.cholesky(S)
+    y = np.linalg.solve(L, nu[..., None])[..., 0]
+    d2 = np.sum(y * y, axis=-1)
+    logdet = 2.0 * np.sum(np.log(np.diagonal(L, axis1=-2, axis2=-1)), axis=-1)
+    m = nu.shape[-1]
+    return -0.5 * (d2 + logdet + m * np.log(2.0 * np.pi)), d2

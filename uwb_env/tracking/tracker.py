@@ -1,0 +1,365 @@
+r"""The tracker: VS-IMM of UKF/EKF with LMIPDA association, initiation and existence-based termination.
+
+One scan (``Tracker.step``), seed 003 section 4.2, in the order data flows:
+
+1. VS-IMM: each track's active model set for this scan (``TrackerConfig.active_models``), set changes by the rule
+   of ``uwb_env.tracking.imm``;
+2. IMM mixing with the transition matrix restricted to the active set, then exact Kalman prediction per model,
+   existence prediction by the Markov chain;
+3. receiver by receiver (the pairs' ``Detections`` in order), sequentially: predicted measurement moments per
+   track and model (UKF or EKF), per-measurement innovation covariances S_i = S0 + R_i (each detection has its own
+   R, from its SNR), ellipsoidal gating with the chi-square threshold of P_G, LMIPDA over all tracks, then each
+   model's PDA update as the exact Gaussian-mixture reduction of {no update, Joseph update with measurement i}
+   weighted by beta (this includes the spread-of-innovations term), existence and model probabilities updated;
+4. initiation from the measurements that belong to no track with probability above 1/2
+   (``uwb_env.tracking.initiation``);
+5. confirmation above ``confirm_existence``; deletion below ``terminate_existence`` or when the position
+   uncertainty exceeds ``max_position_std_m`` (such a track no longer localises anything).
+
+Every track keeps a stable id, its status, age, existence, model probabilities and model-conditioned estimates;
+``TrackSet.combined()`` gives the IMM output. A single-model tracker with ``fixed_existence`` is seed 003's
+open-loop baseline (one NCV UKF) -- the same code.
+
+The detection probability of a track at a pair can be given by a sensor model (``pd_model(tx, rx, positions)``,
+e.g. the parametric sensor's radar equation at the predicted position); otherwise the configured constant is used.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.stats import chi2
+
+from uwb_env.config import TrackerConfig
+from uwb_env.scene.motion_models import model_transition, process_noise
+from uwb_env.sensing.records import Detections
+from uwb_env.tracking.imm import imm_combine, imm_mix, restrict_transition, switch_model_sets
+from uwb_env.tracking.initiation import (
+    fuse_candidates,
+    range_azimuth_candidates,
+    range_only_candidates,
+    ridge_range,
+    two_point_pairs,
+)
+from uwb_env.tracking.kernels import (
+    UnscentedWeights,
+    ekf_moments,
+    gaussian_log_likelihood,
+    joseph_update,
+    kf_predict,
+    mixture_reduce,
+    ukf_moments,
+)
+from uwb_env.tracking.lmipda import lmipda, predict_existence
+from uwb_env.tracking.measurement import angular_mask, wrap_residual
+from uwb_env.typing import BoolArray, FloatArray, IntArray
+
+PdModel = Callable[[int, int, FloatArray], FloatArray]
+ZERO_ACCELERATION_STD = 0.01
+"""Acceleration std [m/s^2] kept by models without acceleration (NCV, CT) so covariances stay positive definite."""
+
+
+@dataclass(slots=True)
+class TrackSet:
+    """The tracks (mutable per-episode state), arrays over N tracks and the r models of the tracker.
+
+    Attributes:
+        ids: ``(N,)`` stable ids; confirmed: ``(N,)``; age: ``(N,)`` scans since birth; born: ``(N,)`` scan index.
+        existence: ``(N,)`` probability of existence; mu: ``(N, r)`` model probabilities; active: ``(N, r)``.
+        x: ``(N, r, 6)`` and P: ``(N, r, 6, 6)`` model-conditioned estimates.
+    """
+
+    ids: IntArray
+    confirmed: BoolArray
+    age: IntArray
+    born: IntArray
+    existence: FloatArray
+    mu: FloatArray
+    active: BoolArray
+    x: FloatArray
+    P: FloatArray
+
+    @classmethod
+    def empty(cls, r: int) -> TrackSet:
+        """No tracks."""
+        return cls(
+            np.zeros(0, np.int64),
+            np.zeros(0, bool),
+            np.zeros(0, np.int64),
+            np.zeros(0, np.int64),
+            np.zeros(0),
+            np.zeros((0, r)),
+            np.zeros((0, r), bool),
+            np.zeros((0, r, 6)),
+            np.zeros((0, r, 6, 6)),
+        )
+
+    def __len__(self) -> int:
+        return int(self.ids.shape[0])
+
+    def select(self, keep: BoolArray) -> TrackSet:
+        """The tracks where ``keep`` (N,) is True."""
+        return TrackSet(*(getattr(self, f)[keep] for f in _FIELDS))
+
+    def extend(self, other: TrackSet) -> TrackSet:
+        """This set followed by ``other``."""
+        return TrackSet(*(np.concatenate([getattr(self, f), getattr(other, f)]) for f in _FIELDS))
+
+    def combined(self) -> tuple[FloatArray, FloatArray]:
+        """IMM output: combined means ``(N, 6)`` and covariances ``(N, 6, 6)``."""
+        return imm_combine(self.mu, self.x, self.P)
+
+
+_FIELDS = ("ids", "confirmed", "age", "born", "existence", "mu", "active", "x", "P")
+
+
+@dataclass(slots=True)
+class _Candidates:
+    """Initiation candidates kept from the previous scan."""
+
+    p: FloatArray = field(default_factory=lambda: np.zeros((0, 2)))
+    cov: FloatArray = field(default_factory=lambda: np.zeros((0, 2, 2)))
+    time_s: float = -np.inf
+
+
+class Tracker:
+    """VS-IMM / LMIPDA multi-target tracker (component tier: configuration + kernels, state in ``tracks``).
+
+    Args:
+        cfg: tracker configuration; tx_pos, rx_pos: ``(T, 2)``, ``(R, 2)`` node positions [m];
+        area: surveillance area ``[x_min, x_max, y_min, y_max]`` [m] (candidates outside are dropped);
+        pd_model: optional ``(tx, rx, positions (N, 2)) -> Pd (N,)``.
+    """
+
+    def __init__(
+        self,
+        cfg: TrackerConfig,
+        tx_pos: FloatArray,
+        rx_pos: FloatArray,
+        area: FloatArray,
+        pd_model: PdModel | None = None,
+    ) -> None:
+        self.cfg = cfg
+        self.tx_pos, self.rx_pos = np.asarray(tx_pos, float), np.asarray(rx_pos, float)
+        self.area = np.asarray(area, float)
+        self.pd_model = pd_model
+        self.model_names = tuple(m.name for m in cfg.models)
+        self.r = len(cfg.models)
+        self.transition = np.array(cfg.transition, dtype=float)
+        self.weights = UnscentedWeights(6)
+        self._matrices: dict[float, tuple[FloatArray, FloatArray]] = {}
+        self._gates = {
+            m: float(chi2.ppf(cfg.gate_probability, m)) if cfg.gate_probability < 1 else np.inf for m in (1, 2, 3, 4)
+        }
+        x0, x1, y0, y1 = self.area
+        cx, cy, hx, hy = (x0 + x1) / 2, (y0 + y1) / 2, (x1 - x0) / 4, (y1 - y0) / 4
+        self._starts = np.array(
+            [[cx, cy], [cx - hx, cy - hy], [cx + hx, cy - hy], [cx - hx, cy + hy], [cx + hx, cy + hy]]
+        )
+        self.reset()
+
+    # ----------------------------------------------------------------------------------------------- state
+    def reset(self) -> None:
+        """Forget every track and candidate."""
+        self.tracks = TrackSet.empty(self.r)
+        self._next_id = 0
+        self._previous = _Candidates()
+        self._time: float | None = None
+
+    def _active_mask(self, scan_index: int) -> BoolArray:
+        names = self.cfg.active_models(scan_index)
+        return np.array([n in names for n in self.model_names])
+
+    def _model_matrices(self, dt: float) -> tuple[FloatArray, FloatArray]:
+        """``(r, 6, 6)`` transition and process noise for period ``dt`` (cached per dt)."""
+        key = round(dt, 12)
+        if key not in self._matrices:
+            Fs, Qs = [], []
+            for m in self.cfg.models:  # the model set: a small fixed set
+                F, G = model_transition(m.kind, dt, m.turn_rate_rps)
+                Q = process_noise(G, m.accel_noise_std_mps2)
+                if m.kind != "nca":
+                    # Seed 003's NCV / CT zero the acceleration rows, which leaves P singular; they carry the
+                    # acceleration as zero-mean with a tiny variance instead, so P stays positive definite.
+                    Q[4, 4] = Q[5, 5] = ZERO_ACCELERATION_STD**2
+                Fs.append(F)
+                Qs.append(Q)
+            self._matrices[key] = (np.stack(Fs), np.stack(Qs))
+        return self._matrices[key]
+
+    # ------------------------------------------------------------------------------------------------ scan
+    def step(self, detections: Sequence[Detections], time_s: float, scan_index: int) -> TrackSet:
+        """Process one scan of detections (all pairs) and return the updated tracks."""
+        cfg = self.cfg
+        if self._time is not None and len(self.tracks):
+            self._predict(time_s - self._time, scan_index)
+        self._time = time_s
+        unused = []
+        for det in detections:  # receiver by receiver, sequentially (seed 003)
+            used = self._update(det) if len(self.tracks) and len(det) else np.zeros(len(det), bool)
+            unused.append((det, ~used))
+        self._initiate(unused, time_s, scan_index)
+        t = self.tracks
+        t.confirmed = t.confirmed | (t.existence >= cfg.confirm_existence)
+        _, P = t.combined()
+        lost = np.trace(P[:, [0, 2]][:, :, [0, 2]], axis1=1, axis2=2) > 2.0 * cfg.max_position_std_m**2
+        self.tracks = t.select((t.existence >= cfg.terminate_existence) & ~lost)
+        return self.tracks
+
+    def _predict(self, dt: float, scan_index: int) -> None:
+        t = self.tracks
+        active = np.broadcast_to(self._active_mask(scan_index), t.active.shape)
+        mu, x, P = switch_model_sets(t.active, active, t.mu, t.x, t.P)
+        Pi = restrict_transition(self.transition, active)
+        cbar, x0, P0 = imm_mix(mu, Pi, x, P)
+        F, Q = self._model_matrices(dt)
+        t.x, t.P = kf_predict(x0, P0, F[None], Q[None])
+        t.mu = np.where(active, cbar, 0.0)
+        t.mu /= t.mu.sum(axis=-1, keepdims=True)
+        t.active = active.copy()
+        t.existence = predict_existence(t.existence, self.cfg.survival_probability)
+        t.age = t.age + 1
+
+    def _update(self, det: Detections) -> BoolArray:
+        """LMIPDA + PDA update of every track with one pair's detections; returns which measurements were gated."""
+        cfg, t = self.cfg, self.tracks
+        names = det.measurement_names
+        m = len(names)
+        tx, rx = self.tx_pos[det.tx], self.rx_pos[det.rx]
+        ang = angular_mask(names)
+        if cfg.filter == "ukf":
+            z_hat, S0, C = ukf_moments(names, t.x, t.P, tx, rx, self.weights, ang)
+        else:
+            z_hat, S0, C = ekf_moments(names, t.x, t.P, tx, rx)
+        nu = wrap_residual(det.z[None, None] - z_hat[:, :, None], ang)  # (N, r, M, m)
+        S = S0[:, :, None] + det.R[None, None]  # (N, r, M, m, m)
+        loglik, d2 = gaussian_log_likelihood(nu, S)
+        gated = (d2 < self._gates[m]) & t.active[:, :, None]
+        used = gated.any(axis=(0, 1))
+        if not used.any():
+            pd = self._pd(det, t)
+            psi, mu, _ = lmipda(
+                np.zeros((len(t), self.r, 0)),
+                np.zeros((len(t), self.r, 0), bool),
+                t.mu,
+                t.existence,
+                pd,
+                cfg.gate_probability,
+                cfg.fixed_existence,
+            )
+            t.existence, t.mu = psi, np.where(t.active, mu, 0.0)
+            return used
+        j = np.flatnonzero(used)  # only the measurements some track gates enter the update
+        rho = np.maximum(det.clutter_intensity[j], cfg.min_clutter_intensity)
+        log_ratio = loglik[:, :, j] - np.log(cfg.gate_probability) - np.log(rho)[None, None]
+        psi, mu, beta = lmipda(
+            log_ratio, gated[:, :, j], t.mu, t.existence, self._pd(det, t), cfg.gate_probability, cfg.fixed_existence
+        )
+        xu, Pu = joseph_update(
+            t.x[:, :, None], t.P[:, :, None], C[:, :, None], S0[:, :, None], det.R[j][None, None], nu[:, :, j]
+        )  # (N, r, J, 6), (N, r, J, 6, 6)
+        xs = np.concatenate([t.x[:, :, None], xu], axis=2)
+        Ps = np.concatenate([t.P[:, :, None], Pu], axis=2)
+        t.x, t.P = mixture_reduce(beta, xs, Ps)
+        t.existence, t.mu = psi, np.where(t.active, mu, 0.0)
+        # A measurement is taken (kept from initiation) when it belongs to some track with probability > 1/2:
+        # P(track t exists and measurement i is its) = psi_t+ sum_r mu_r+ beta_i^{t,r}.
+        owned = np.einsum("n,nr,nrj->j", psi, t.mu, beta[:, :, 1:])
+        taken = np.zeros(len(det), bool)
+        taken[j] = owned > 0.5
+        return taken
+
+    def _pd(self, det: Detections, t: TrackSet) -> FloatArray:
+        if self.pd_model is None:
+            return np.full(len(t), self.cfg.detection_probability)
+        x, _ = t.combined()
+        return np.asarray(self.pd_model(det.tx, det.rx, x[:, [0, 2]]), dtype=float)
+
+    # ------------------------------------------------------------------------------------------ initiation
+    def _initiate(self, unused: list[tuple[Detections, BoolArray]], time_s: float, scan_index: int) -> None:
+        cfg = self.cfg
+        ps, covs, range_groups = [], [], []
+        for det, free in unused:  # per pair: a small fixed set
+            if not free.any():
+                continue
+            z, R = det.z[free], det.R[free]
+            names = det.measurement_names
+            r, var_r = ridge_range(z, R, names, 2.0 * cfg.max_speed_mps)
+            tx, rx = self.tx_pos[det.tx], self.rx_pos[det.rx]
+            if "azimuth" in names:
+                a = names.index("azimuth")
+                p, cov, ok = range_azimuth_candidates(r, var_r, z[:, a], R[:, a, a], tx, rx)
+                ps.append(p[ok])
+                covs.append(cov[ok])
+            else:
+                range_groups.append((r, var_r, tx, rx))
+        if len(range_groups) >= 2:
+            p, cov = range_only_candidates(range_groups, min(3, len(range_groups)), self.area, self._starts)
+            ps.append(p)
+            covs.append(cov)
+        p = np.concatenate(ps) if ps else np.zeros((0, 2))
+        cov = np.concatenate(covs) if covs else np.zeros((0, 2, 2))
+        inside = (
+            (p[:, 0] >= self.area[0])
+            & (p[:, 0] <= self.area[1])
+            & (p[:, 1] >= self.area[2])
+            & (p[:, 1] <= self.area[3])
+        )
+        inside &= np.trace(cov, axis1=1, axis2=2) <= 2.0 * cfg.init_max_position_std_m**2
+        p, cov = fuse_candidates(p[inside], cov[inside], self._gates[2])
+        prev = self._previous
+        dt = time_s - prev.time_s
+        i, j = (
+            two_point_pairs(p, cov, prev.p, prev.cov, dt, cfg.max_speed_mps)
+            if np.isfinite(dt)
+            else (np.zeros(0, np.int64), np.zeros(0, np.int64))
+        )
+        if i.size:
+            self.tracks = self.tracks.extend(self._new_tracks(p[i], cov[i], prev.p[j], prev.cov[j], dt, scan_index))
+        rest = np.ones(p.shape[0], bool)
+        rest[i] = False
+        self._previous = _Candidates(p[rest], cov[rest], time_s)
+
+    def _new_tracks(
+        self, p: FloatArray, cov: FloatArray, p0: FloatArray, cov0: FloatArray, dt: float, scan_index: int
+    ) -> TrackSet:
+        """Tentative tracks from two-point differencing: position now, velocity from the difference.
+
+        The differenced velocity v_hat = (p - p0) / T, covariance Sigma = (cov + cov0) / T^2, is fused with the
+        prior N(0, (v_max / 2)^2 I): v = K v_hat, Cov(v) = (Sigma^-1 + prior^-1)^-1, K = Cov(v) Sigma^-1, and
+        Cov(p, v) = cov K^T / T (a valid joint covariance since Cov(v) <= Sigma).
+        """
+        n, cfg = p.shape[0], self.cfg
+        v_hat = (p - p0) / dt
+        sigma = (cov + cov0) / dt**2
+        sigma_inv = np.linalg.inv(sigma)
+        cov_v = np.linalg.inv(sigma_inv + np.eye(2) / (0.5 * cfg.max_speed_mps) ** 2)
+        K = cov_v @ sigma_inv
+        x = np.zeros((n, 6))
+        x[:, 0], x[:, 2] = p[:, 0], p[:, 1]
+        v = np.einsum("nij,nj->ni", K, v_hat)
+        x[:, 1], x[:, 3] = v[:, 0], v[:, 1]
+        P = np.zeros((n, 6, 6))
+        pos, vel = [0, 2], [1, 3]
+        cross = cov @ np.swapaxes(K, -1, -2) / dt
+        P[:, np.ix_(pos, pos)[0], np.ix_(pos, pos)[1]] = cov
+        P[:, np.ix_(vel, vel)[0], np.ix_(vel, vel)[1]] = cov_v
+        P[:, np.ix_(pos, vel)[0], np.ix_(pos, vel)[1]] = cross
+        P[:, np.ix_(vel, pos)[0], np.ix_(vel, pos)[1]] = np.swapaxes(cross, -1, -2)
+        P[:, 4, 4] = P[:, 5, 5] = cfg.initial_accel_std_mps2**2
+        active = np.broadcast_to(self._active_mask(scan_index), (n, self.r)).copy()
+        ids = np.arange(self._next_id, self._next_id + n)
+        self._next_id += n
+        return TrackSet(
+            ids=ids,
+            confirmed=np.zeros(n, bool),
+            age=np.zeros(n, np.int64),
+            born=np.full(n, scan_index),
+            existence=np.full(n, cfg.initial_existence),
+            mu=active / active.sum(axis=1, keepdims=True),
+            active=active,
+            x=np.repeat(x[:, None], self.r, axis=1),
+            P=np.repeat(P[:, None], self.r, axis=1),
+        )
