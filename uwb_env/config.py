@@ -604,10 +604,10 @@ class TrackerConfig:
     ``survival_probability`` per scan; new tracks start at ``initial_existence`` (the prior that a two-point
     candidate is a target: low, since clutter forms several candidate pairs per scan), are confirmed at
     ``confirm_existence`` and deleted below ``terminate_existence`` or when their position std exceeds
-    ``max_position_std_m``. Initiation: two-point differencing with the
-    velocity gate of seed 003 section 4.2.1 (``max_speed_mps``) from candidates whose position std is below
-    ``init_max_position_std_m``; new tracks get acceleration std ``initial_accel_std_mps2``. ``min_clutter_intensity`` floors rho_i (a clutter-free scene is a vanishing
-    clutter intensity). ``fixed_existence`` turns LMIPDA into PDA (existence 1).
+    ``max_position_std_m``. Initiation: two-point differencing with the velocity gate of seed 003 section 4.2.1
+    (``max_speed_mps``) from candidates whose position std is below ``init_max_position_std_m``; new tracks get
+    acceleration std ``initial_accel_std_mps2``. ``min_clutter_intensity`` floors rho_i (a clutter-free scene is a
+    vanishing clutter intensity). ``fixed_existence`` turns LMIPDA into PDA (existence 1).
     """
 
     models: tuple[MotionModelConfig, ...] = _SEED003_TRACKER_MODELS

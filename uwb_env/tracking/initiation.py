@@ -82,7 +82,7 @@ def ellipse_intersection(
         position ``(N, 2)``, covariance ``(N, 2, 2)`` = (J^T V^-1 J)^-1, normalised residual ``(N,)`` (chi-square
         with nu - 2 degrees of freedom if the model holds).
     """
-    N, nu = ranges.shape
+    N = ranges.shape[0]
     p = np.broadcast_to(starts[None], (N, starts.shape[0], 2)).copy()  # (N, S, 2)
     w = 1.0 / variances[:, None, :]  # (N, 1, nu)
 
@@ -148,10 +148,10 @@ def range_only_candidates(
 
 
 def fuse_candidates(p: FloatArray, cov: FloatArray, gate_d2: float) -> tuple[FloatArray, FloatArray]:
-    """Fuse candidates that are each other's nearest neighbour within ``gate_d2`` (Mahalanobis distance with the
-    summed covariances), information-weighted; mutual pairs only, so a wide candidate cannot chain others.
+    """Fuse candidates that are each other's nearest neighbour within ``gate_d2``, information-weighted.
 
-    Returns the fused ``(C', 2)``, ``(C', 2, 2)``.
+    The Mahalanobis distance uses the summed covariances; only mutual pairs fuse, so a wide candidate cannot
+    chain others. Returns the fused ``(C', 2)``, ``(C', 2, 2)``.
     """
     n = p.shape[0]
     if n <= 1:

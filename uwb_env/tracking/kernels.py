@@ -47,7 +47,7 @@ class UnscentedWeights:
 
     @property
     def lam(self) -> float:
-        """lambda = alpha^2 (n + kappa) - n."""
+        """Lambda = alpha^2 (n + kappa) - n."""
         return self.alpha**2 * (self.n + self.kappa) - self.n
 
     @property
