@@ -52,7 +52,8 @@ def lmipda(
     P = np.where(total > 0, pdpg[:, None] * psi[:, None] * lam_t / np.where(total > 0, total, 1.0), 0.0)
     P = np.minimum(P, 1.0 - 1e-12)  # numerical guard: P_i -> 1 only when P_D P_G psi -> 1
     odds = lam_t * P / (1.0 - P)  # (N, M): each track's claim on each measurement
-    omega = 1.0 + odds.sum(axis=0, keepdims=True) - odds  # (N, M): Omega_i^t / rho_i
+    # (N, M): Omega_i^t / rho_i; the others' claims are summed first so a huge own claim cannot cancel the 1
+    omega = 1.0 + np.maximum(odds.sum(axis=0, keepdims=True) - odds, 0.0)
     share_tr = lam_tr / omega[:, None, :]  # (N, r, M)
     delta_r = pdpg[:, None] * (1.0 - share_tr.sum(axis=-1))  # (N, r)
     delta = np.einsum("nr,nr->n", mu, delta_r)  # = P_D P_G (1 - sum_i lambda_i^t / omega), mu sums to 1
