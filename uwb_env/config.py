@@ -607,7 +607,10 @@ class TrackerConfig:
     ``max_position_std_m``. Initiation: two-point differencing with the velocity gate of seed 003 section 4.2.1
     (``max_speed_mps``) from candidates whose position std is below ``init_max_position_std_m``; new tracks get
     acceleration std ``initial_accel_std_mps2``. ``min_clutter_intensity`` floors rho_i (a clutter-free scene is a
-    vanishing clutter intensity). ``fixed_existence`` turns LMIPDA into PDA (existence 1).
+    vanishing clutter intensity). ``fixed_existence`` turns LMIPDA into PDA (existence 1). With a sensor model the
+    detection probability of a track is the radar equation's at its predicted position for a target of
+    ``assumed_rcs_m2`` and ``assumed_swerling``, capped at ``max_detection_probability`` (one missed detection
+    must not end a track).
     """
 
     models: tuple[MotionModelConfig, ...] = _SEED003_TRACKER_MODELS
@@ -627,6 +630,9 @@ class TrackerConfig:
     max_position_std_m: float = 50.0
     min_clutter_intensity: float = 1e-15
     fixed_existence: bool = False
+    assumed_rcs_m2: float = 1.0
+    assumed_swerling: int = 1
+    max_detection_probability: float = 0.99
 
     def __post_init__(self) -> None:
         if not isinstance(self.models, tuple) or not self.models:
@@ -671,6 +677,9 @@ class TrackerConfig:
         _positive("TrackerConfig", "init_max_position_std_m", self.init_max_position_std_m)
         _positive("TrackerConfig", "max_position_std_m", self.max_position_std_m)
         _in_range("TrackerConfig", "min_clutter_intensity", self.min_clutter_intensity, 1e-300, 1.0, closed="(]")
+        _positive("TrackerConfig", "assumed_rcs_m2", self.assumed_rcs_m2)
+        _choice("TrackerConfig", "assumed_swerling", self.assumed_swerling, (0, 1, 3))
+        _in_range("TrackerConfig", "max_detection_probability", self.max_detection_probability, 0.0, 1.0, closed="(]")
 
     def active_models(self, scan_index: int) -> tuple[str, ...]:
         """The model set in force at a scan (the first matching window, else the default set)."""

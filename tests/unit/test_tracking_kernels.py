@@ -75,8 +75,12 @@ def test_jacobians_match_finite_differences(name, rng):
     x = np.array([40.0, 3.0, 25.0, -7.0, 0.5, 0.2]) + rng.standard_normal(6)
     _, J = measure((name,), x, TX, RX)
     h = 1e-6
-    fd = np.array([(measure((name,), x + h * e, TX, RX)[0] - measure((name,), x - h * e, TX, RX)[0])[0] / (2 * h)
-                   for e in np.eye(6)])
+    fd = np.array(
+        [
+            (measure((name,), x + h * e, TX, RX)[0] - measure((name,), x - h * e, TX, RX)[0])[0] / (2 * h)
+            for e in np.eye(6)
+        ]
+    )
     np.testing.assert_allclose(J[0], fd, rtol=1e-6, atol=1e-9)
 
 
@@ -169,28 +173,42 @@ def test_existence_update_matches_the_seed_formula():
     pd, pg, psi = 0.8, 0.95, 0.3
     lam = np.array([2.0, 0.5])  # p_i / rho_i
     delta = pd * pg * (1 - lam.sum())
-    post, mu, beta = lmipda(np.log(lam)[None, None], np.ones((1, 1, 2), bool), np.ones((1, 1)), np.array([psi]),
-                            np.array([pd]), pg)
+    post, mu, beta = lmipda(
+        np.log(lam)[None, None], np.ones((1, 1, 2), bool), np.ones((1, 1)), np.array([psi]), np.array([pd]), pg
+    )
     assert post[0] == pytest.approx((1 - delta) * psi / (1 - delta * psi))
     np.testing.assert_allclose(beta[0, 0], np.array([1 - pd * pg, pd * pg * 2.0, pd * pg * 0.5]) / (1 - delta))
     # no measurement: delta = P_D P_G and existence drops
-    post0, _, _ = lmipda(np.zeros((1, 1, 0)), np.zeros((1, 1, 0), bool), np.ones((1, 1)), np.array([psi]),
-                         np.array([pd]), pg)
+    post0, _, _ = lmipda(
+        np.zeros((1, 1, 0)), np.zeros((1, 1, 0), bool), np.ones((1, 1)), np.array([psi]), np.array([pd]), pg
+    )
     assert post0[0] == pytest.approx((1 - pd * pg) * psi / (1 - pd * pg * psi))
 
 
 def test_lmipda_second_track_acts_as_clutter():
     """Two tracks claim one measurement: each one's Omega includes the other's claim, so each beta_1 drops."""
     one = lmipda(np.log([[[5.0]]]), np.ones((1, 1, 1), bool), np.ones((1, 1)), np.array([0.9]), np.array([0.9]), 0.99)
-    two = lmipda(np.log([[[5.0]], [[5.0]]]), np.ones((2, 1, 1), bool), np.ones((2, 1)), np.array([0.9, 0.9]),
-                 np.full(2, 0.9), 0.99)
+    two = lmipda(
+        np.log([[[5.0]], [[5.0]]]),
+        np.ones((2, 1, 1), bool),
+        np.ones((2, 1)),
+        np.array([0.9, 0.9]),
+        np.full(2, 0.9),
+        0.99,
+    )
     assert two[2][0, 0, 1] < one[2][0, 0, 1]
     np.testing.assert_allclose(two[2][0], two[2][1])
 
 
 @settings(max_examples=100, deadline=None)
-@given(seed=st.integers(0, 10_000), n_meas=st.integers(0, 6), r=st.integers(1, 4), n_tracks=st.integers(1, 4),
-       pd=st.floats(0.01, 0.999), pg=st.floats(0.5, 0.9999))
+@given(
+    seed=st.integers(0, 10_000),
+    n_meas=st.integers(0, 6),
+    r=st.integers(1, 4),
+    n_tracks=st.integers(1, 4),
+    pd=st.floats(0.01, 0.999),
+    pg=st.floats(0.5, 0.9999),
+)
 def test_lmipda_probabilities_stay_on_the_simplex(seed, n_meas, r, n_tracks, pd, pg):
     rng = np.random.default_rng(seed)
     mu = rng.dirichlet(np.ones(r), n_tracks)
@@ -211,8 +229,10 @@ def test_joseph_update_keeps_covariances_symmetric_positive_definite(seed, log_s
     P = random_spd(rng, 6, 10.0**log_scale)
     names = ("bistatic_range", "range_rate", "azimuth")
     R = random_spd(rng, 3, 10.0 ** (log_scale - 2))
-    for moments in (ekf_moments(names, x, P, TX, RX),
-                    ukf_moments(names, x, P, TX, RX, UnscentedWeights(6), angular_mask(names))):
+    for moments in (
+        ekf_moments(names, x, P, TX, RX),
+        ukf_moments(names, x, P, TX, RX, UnscentedWeights(6), angular_mask(names)),
+    ):
         z_hat, S0, C = moments
         _, Pu = joseph_update(x, P, C, S0, R, rng.standard_normal(3))
         np.testing.assert_allclose(Pu, Pu.T)

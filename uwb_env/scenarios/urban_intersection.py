@@ -131,6 +131,7 @@ def urban_intersection() -> ScenarioConfig:
         walls=walls,
         clutter_points_m=_vegetation(),
         tracker=TrackerConfig(
+            assumed_rcs_m2=10.0,
             default_models=("nca", "ncv"),
             model_set_windows=(ModelSetWindowConfig(20, 100, ("nca", "ct_left", "ct_right")),),
         ),
