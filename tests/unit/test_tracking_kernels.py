@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -159,7 +157,7 @@ def test_lmipda_single_track_pd1_pg1_no_clutter_is_the_filter_update(rng):
     z = z_hat[0, 0] + np.array([0.3, -0.2])
     nu = (z - z_hat)[:, :, None]
     log_ratio = np.full((1, 1, 1), 60.0)  # rho -> 0
-    psi, mu, beta = lmipda(log_ratio, np.ones((1, 1, 1), bool), np.ones((1, 1)), np.array([0.5]), np.ones(1), 1.0)
+    psi, _, beta = lmipda(log_ratio, np.ones((1, 1, 1), bool), np.ones((1, 1)), np.array([0.5]), np.ones(1), 1.0)
     np.testing.assert_allclose(beta[0, 0], [0.0, 1.0], atol=1e-20)
     assert psi[0] == pytest.approx(1.0, abs=1e-20)
     xu, Pu = joseph_update(x[:, :, None], P[:, :, None], C[:, :, None], S0[:, :, None], R[None, None], nu)
@@ -173,7 +171,7 @@ def test_existence_update_matches_the_seed_formula():
     pd, pg, psi = 0.8, 0.95, 0.3
     lam = np.array([2.0, 0.5])  # p_i / rho_i
     delta = pd * pg * (1 - lam.sum())
-    post, mu, beta = lmipda(
+    post, _, beta = lmipda(
         np.log(lam)[None, None], np.ones((1, 1, 2), bool), np.ones((1, 1)), np.array([psi]), np.array([pd]), pg
     )
     assert post[0] == pytest.approx((1 - delta) * psi / (1 - delta * psi))
@@ -233,7 +231,7 @@ def test_joseph_update_keeps_covariances_symmetric_positive_definite(seed, log_s
         ekf_moments(names, x, P, TX, RX),
         ukf_moments(names, x, P, TX, RX, UnscentedWeights(6), angular_mask(names)),
     ):
-        z_hat, S0, C = moments
+        _, S0, C = moments
         _, Pu = joseph_update(x, P, C, S0, R, rng.standard_normal(3))
         np.testing.assert_allclose(Pu, Pu.T)
         assert np.all(np.linalg.eigvalsh(Pu) > -1e-9 * np.abs(P).max())

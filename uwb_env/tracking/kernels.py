@@ -74,11 +74,10 @@ def sigma_points(x: FloatArray, P: FloatArray, weights: UnscentedWeights) -> Flo
 
 
 def _circular_mean(z: FloatArray, w: FloatArray, angular: np.ndarray) -> FloatArray:
-    zm = np.einsum("k,...km->...m", w, z)
+    zm = w @ z
     if angular.any():
-        s = np.einsum("k,...km->...m", w, np.sin(z[..., angular]))
-        c = np.einsum("k,...km->...m", w, np.cos(z[..., angular]))
-        zm[..., angular] = np.arctan2(s, c)
+        za = z[..., angular]
+        zm[..., angular] = np.arctan2(w @ np.sin(za), w @ np.cos(za))
     return zm
 
 
@@ -97,9 +96,9 @@ def ukf_moments(
     z_hat = _circular_mean(Z, weights.mean, angular)
     dZ = wrap_residual(Z - z_hat[..., None, :], angular)
     dX = chi - x[..., None, :]
-    wc = weights.cov
-    S0 = np.einsum("k,...ki,...kj->...ij", wc, dZ, dZ)
-    C = np.einsum("k,...ki,...kj->...ij", wc, dX, dZ)
+    wdZ = dZ * weights.cov[:, None]
+    S0 = np.swapaxes(dZ, -1, -2) @ wdZ
+    C = np.swapaxes(dX, -1, -2) @ wdZ
     return z_hat, symmetrise(S0), C
 
 
@@ -112,24 +111,37 @@ def ekf_moments(
     return z_hat, symmetrise(H @ C), C
 
 
+def linearised_h(P: FloatArray, C: FloatArray) -> FloatArray:
+    """Statistically linearised measurement matrix H = C^T P^-1 ``(..., m, n)`` (the Jacobian for the EKF)."""
+    return np.swapaxes(np.linalg.solve(P, C), -1, -2)
+
+
 def joseph_update(
-    x: FloatArray, P: FloatArray, C: FloatArray, S0: FloatArray, R: FloatArray, nu: FloatArray
+    x: FloatArray,
+    P: FloatArray,
+    C: FloatArray,
+    S0: FloatArray,
+    R: FloatArray,
+    nu: FloatArray,
+    H: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """Single-measurement update in Joseph form with H = C^T P^-1.
 
     Args:
-        x (..., n), P (..., n, n), C (..., n, m), S0 (..., m, m), R (..., m, m), nu (..., m) innovation.
+        x (..., n), P (..., n, n), C (..., n, m), S0 (..., m, m), R (..., m, m), nu (..., m) innovation;
+        H (..., m, n) optionally precomputed by :func:`linearised_h`.
 
     Returns:
         updated x (..., n) and P (..., n, n); K = C (S0 + R)^-1.
     """
     S = S0 + R
     K = np.swapaxes(np.linalg.solve(S, np.swapaxes(C, -1, -2)), -1, -2)  # C S^-1 (S symmetric)
-    H = np.swapaxes(np.linalg.solve(P, C), -1, -2)  # C^T P^-1 (P symmetric)
+    if H is None:
+        H = linearised_h(P, C)
     n = x.shape[-1]
     A = np.eye(n) - K @ H
     Pu = A @ P @ np.swapaxes(A, -1, -2) + K @ R @ np.swapaxes(K, -1, -2)
-    return x + np.einsum("...ij,...j->...i", K, nu), symmetrise(Pu)
+    return x + (K @ nu[..., None])[..., 0], symmetrise(Pu)
 
 
 def mixture_reduce(weights: FloatArray, x: FloatArray, P: FloatArray) -> tuple[FloatArray, FloatArray]:

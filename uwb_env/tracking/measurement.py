@@ -19,53 +19,56 @@ import numpy as np
 
 from uwb_env.typing import FloatArray
 
-Component = Callable[[FloatArray, FloatArray, FloatArray], tuple[FloatArray, FloatArray]]
+
+class _Legs:
+    """Node-to-target vectors and distances of states ``x (..., 6)``, computed once per ``measure`` call."""
+
+    __slots__ = ("dr", "dt", "lr", "lt", "x")
+
+    def __init__(self, x: FloatArray, tx: FloatArray, rx: FloatArray) -> None:
+        self.x = x
+        px, py = x[..., 0], x[..., 2]
+        self.dt = (px - tx[0], py - tx[1])
+        self.dr = (px - rx[0], py - rx[1])
+        self.lt = np.maximum(np.sqrt(self.dt[0] ** 2 + self.dt[1] ** 2), 1e-9)
+        self.lr = np.maximum(np.sqrt(self.dr[0] ** 2 + self.dr[1] ** 2), 1e-9)
 
 
-def _legs(x: FloatArray, node: FloatArray) -> tuple[FloatArray, FloatArray]:
-    d = np.stack([x[..., 0] - node[0], x[..., 2] - node[1]], axis=-1)
-    return d, np.maximum(np.linalg.norm(d, axis=-1), 1e-9)
+Component = Callable[[_Legs, FloatArray], FloatArray]
 
 
-def _range(x: FloatArray, tx: FloatArray, rx: FloatArray) -> tuple[FloatArray, FloatArray]:
-    dt, lt = _legs(x, tx)
-    dr, lr = _legs(x, rx)
-    g = dt / lt[..., None] + dr / lr[..., None]
-    jac = np.zeros((*x.shape[:-1], 6))
-    jac[..., 0], jac[..., 2] = g[..., 0], g[..., 1]
-    return lt + lr, jac
+def _range(g: _Legs, jac: FloatArray) -> FloatArray:
+    jac[..., 0] = g.dt[0] / g.lt + g.dr[0] / g.lr
+    jac[..., 2] = g.dt[1] / g.lt + g.dr[1] / g.lr
+    return g.lt + g.lr
 
 
-def _range_rate(x: FloatArray, tx: FloatArray, rx: FloatArray) -> tuple[FloatArray, FloatArray]:
-    v = np.stack([x[..., 1], x[..., 3]], axis=-1)
-    jac = np.zeros((*x.shape[:-1], 6))
-    h = np.zeros(x.shape[:-1])
-    for node in (tx, rx):  # the two legs
-        d, n = _legs(x, node)
-        u = d / n[..., None]
-        uv = np.sum(u * v, axis=-1)
+def _range_rate(g: _Legs, jac: FloatArray) -> FloatArray:
+    vx, vy = g.x[..., 1], g.x[..., 3]
+    h = np.zeros(g.x.shape[:-1])
+    for (dx, dy), n in ((g.dt, g.lt), (g.dr, g.lr)):  # the two legs
+        ux, uy = dx / n, dy / n
+        uv = ux * vx + uy * vy
         h = h + uv
-        dp = (v - u * uv[..., None]) / n[..., None]  # (I - u u^T) v / |d|
-        jac[..., 0] += dp[..., 0]
-        jac[..., 2] += dp[..., 1]
-        jac[..., 1] += u[..., 0]
-        jac[..., 3] += u[..., 1]
-    return h, jac
+        jac[..., 0] += (vx - ux * uv) / n  # (I - u u^T) v / |d|
+        jac[..., 2] += (vy - uy * uv) / n
+        jac[..., 1] += ux
+        jac[..., 3] += uy
+    return h
 
 
-def _azimuth(x: FloatArray, tx: FloatArray, rx: FloatArray) -> tuple[FloatArray, FloatArray]:
-    d, n = _legs(x, rx)
-    jac = np.zeros((*x.shape[:-1], 6))
-    jac[..., 0] = -d[..., 1] / n**2
-    jac[..., 2] = d[..., 0] / n**2
-    return np.arctan2(d[..., 1], d[..., 0]), jac
+def _azimuth(g: _Legs, jac: FloatArray) -> FloatArray:
+    dx, dy = g.dr
+    n2 = g.lr**2
+    jac[..., 0] = -dy / n2
+    jac[..., 2] = dx / n2
+    return np.arctan2(dy, dx)
 
 
 def _position(axis: int) -> Component:
-    def comp(x: FloatArray, tx: FloatArray, rx: FloatArray) -> tuple[FloatArray, FloatArray]:
-        jac = np.zeros((*x.shape[:-1], 6))
+    def comp(g: _Legs, jac: FloatArray) -> FloatArray:
         jac[..., 2 * axis] = 1.0
-        return x[..., 2 * axis].copy(), jac
+        return g.x[..., 2 * axis].copy()
 
     return comp
 
@@ -86,11 +89,15 @@ def measure(names: tuple[str, ...], x: FloatArray, tx: FloatArray, rx: FloatArra
     Args:
         names: component names (keys of :data:`COMPONENTS`); x: ``(..., 6)``; tx, rx: ``(2,)`` node positions [m].
     """
-    try:
-        parts = [COMPONENTS[n](x, tx, rx) for n in names]  # m <= 3 components
-    except KeyError as err:
-        raise ValueError(f"measurement name {err.args[0]!r}: must be one of {sorted(COMPONENTS)}") from None
-    return np.stack([p[0] for p in parts], axis=-1), np.stack([p[1] for p in parts], axis=-2)
+    unknown = [n for n in names if n not in COMPONENTS]
+    if unknown:
+        raise ValueError(f"measurement name {unknown[0]!r}: must be one of {sorted(COMPONENTS)}")
+    legs = _Legs(x, tx, rx)
+    z = np.empty((*x.shape[:-1], len(names)))
+    jac = np.zeros((*x.shape[:-1], len(names), 6))
+    for i, n in enumerate(names):  # m <= 3 components
+        z[..., i] = COMPONENTS[n](legs, jac[..., i, :])
+    return z, jac
 
 
 def angular_mask(names: tuple[str, ...]) -> np.ndarray:

@@ -49,6 +49,7 @@ from uwb_env.tracking.kernels import (
     gaussian_log_likelihood,
     joseph_update,
     kf_predict,
+    linearised_h,
     mixture_reduce,
     ukf_moments,
 )
@@ -223,26 +224,35 @@ class Tracker:
         t.age = t.age + 1
 
     def _update(self, det: Detections) -> BoolArray:
-        """LMIPDA + PDA update of every track with one pair's detections; returns which measurements were gated."""
+        """LMIPDA + PDA update of every track with one pair's detections.
+
+        Returns which measurements now belong to some track (kept from initiation). Only (track, model,
+        measurement) triples that pass the gate are evaluated in full: a cheap exact pre-gate first, since
+        nu^T S^-1 nu >= nu_k^2 / S_kk for every component k of a positive definite S.
+        """
         cfg, t = self.cfg, self.tracks
         names = det.measurement_names
         m = len(names)
+        N, r = len(t), self.r
         tx, rx = self.tx_pos[det.tx], self.rx_pos[det.rx]
         ang = angular_mask(names)
         if cfg.filter == "ukf":
             z_hat, S0, C = ukf_moments(names, t.x, t.P, tx, rx, self.weights, ang)
         else:
             z_hat, S0, C = ekf_moments(names, t.x, t.P, tx, rx)
+        g2 = self._gates[m]
         nu = wrap_residual(det.z[None, None] - z_hat[:, :, None], ang)  # (N, r, M, m)
-        S = S0[:, :, None] + det.R[None, None]  # (N, r, M, m, m)
-        loglik, d2 = gaussian_log_likelihood(nu, S)
-        gated = (d2 < self._gates[m]) & t.active[:, :, None]
-        used = gated.any(axis=(0, 1))
-        if not used.any():
-            pd = self._pd(det, t)
+        s_diag = np.diagonal(S0, axis1=-2, axis2=-1)[:, :, None] + np.diagonal(det.R, axis1=-2, axis2=-1)[None, None]
+        ti, ri, mi = np.nonzero(np.all(nu * nu <= g2 * s_diag, axis=-1) & t.active[:, :, None])
+        S = S0[ti, ri] + det.R[mi]
+        loglik, d2 = gaussian_log_likelihood(nu[ti, ri, mi], S)
+        keep = d2 < g2
+        ti, ri, mi, loglik, S = ti[keep], ri[keep], mi[keep], loglik[keep], S[keep]
+        pd = self._pd(det, t)
+        if mi.size == 0:
             psi, mu, _ = lmipda(
-                np.zeros((len(t), self.r, 0)),
-                np.zeros((len(t), self.r, 0), bool),
+                np.zeros((N, r, 0)),
+                np.zeros((N, r, 0), bool),
                 t.mu,
                 t.existence,
                 pd,
@@ -250,25 +260,28 @@ class Tracker:
                 cfg.fixed_existence,
             )
             t.existence, t.mu = psi, np.where(t.active, mu, 0.0)
-            return used
-        j = np.flatnonzero(used)  # only the measurements some track gates enter the update
-        rho = np.maximum(det.clutter_intensity[j], cfg.min_clutter_intensity)
-        log_ratio = loglik[:, :, j] - np.log(cfg.gate_probability) - np.log(rho)[None, None]
-        psi, mu, beta = lmipda(
-            log_ratio, gated[:, :, j], t.mu, t.existence, self._pd(det, t), cfg.gate_probability, cfg.fixed_existence
-        )
-        xu, Pu = joseph_update(
-            t.x[:, :, None], t.P[:, :, None], C[:, :, None], S0[:, :, None], det.R[j][None, None], nu[:, :, j]
-        )  # (N, r, J, 6), (N, r, J, 6, 6)
-        xs = np.concatenate([t.x[:, :, None], xu], axis=2)
-        Ps = np.concatenate([t.P[:, :, None], Pu], axis=2)
+            return np.zeros(len(det), bool)
+        cols, j = np.unique(mi, return_inverse=True)  # the measurements some track gates
+        J = cols.size
+        rho = np.maximum(det.clutter_intensity[cols], cfg.min_clutter_intensity)
+        log_ratio = np.zeros((N, r, J))
+        gated = np.zeros((N, r, J), bool)
+        log_ratio[ti, ri, j] = loglik - np.log(cfg.gate_probability) - np.log(rho[j])
+        gated[ti, ri, j] = True
+        psi, mu, beta = lmipda(log_ratio, gated, t.mu, t.existence, pd, cfg.gate_probability, cfg.fixed_existence)
+        H = linearised_h(t.P, C)  # (N, r, m, 6), once per track and model
+        xu, Pu = joseph_update(t.x[ti, ri], t.P[ti, ri], C[ti, ri], S0[ti, ri], det.R[mi], nu[ti, ri, mi], H[ti, ri])
+        xs = np.broadcast_to(t.x[:, :, None], (N, r, J + 1, 6)).copy()
+        Ps = np.broadcast_to(t.P[:, :, None], (N, r, J + 1, 6, 6)).copy()
+        xs[ti, ri, j + 1] = xu
+        Ps[ti, ri, j + 1] = Pu
         t.x, t.P = mixture_reduce(beta, xs, Ps)
         t.existence, t.mu = psi, np.where(t.active, mu, 0.0)
         # A measurement is taken (kept from initiation) when it belongs to some track with probability > 1/2:
         # P(track t exists and measurement i is its) = psi_t+ sum_r mu_r+ beta_i^{t,r}.
         owned = np.einsum("n,nr,nrj->j", psi, t.mu, beta[:, :, 1:])
         taken = np.zeros(len(det), bool)
-        taken[j] = owned > 0.5
+        taken[cols] = owned > 0.5
         return taken
 
     def _pd(self, det: Detections, t: TrackSet) -> FloatArray:
