@@ -150,9 +150,10 @@ def mixture_reduce(weights: FloatArray, x: FloatArray, P: FloatArray) -> tuple[F
     P = sum_j w_j (P_j + (x_j - xbar)(x_j - xbar)^T): each term is PSD (the PDA "spread of innovations" term is
     the second part).
     """
-    xbar = np.einsum("...j,...jn->...n", weights, x)
+    w = weights[..., None]
+    xbar = (w * x).sum(axis=-2)
     d = x - xbar[..., None, :]
-    Pm = np.einsum("...j,...jab->...ab", weights, P) + np.einsum("...j,...ja,...jb->...ab", weights, d, d)
+    Pm = (w[..., None] * P).sum(axis=-3) + np.swapaxes(w * d, -1, -2) @ d
     return xbar, symmetrise(Pm)
 
 
