@@ -606,7 +606,9 @@ class TrackerConfig:
     ``confirm_existence`` and deleted below ``terminate_existence`` or when their position std exceeds
     ``max_position_std_m``. Initiation: two-point differencing with the velocity gate of seed 003 section 4.2.1
     (``max_speed_mps``) from candidates whose position std is below ``init_max_position_std_m``; new tracks get
-    acceleration std ``initial_accel_std_mps2``. ``min_clutter_intensity`` floors rho_i (a clutter-free scene is a
+    acceleration std ``initial_accel_std_mps2``; at most ``init_max_candidates`` candidates per scan (the most
+    precise; range-only tuples use at most that many highest-SNR detections per receiver) bound the work in
+    very dense clutter. ``min_clutter_intensity`` floors rho_i (a clutter-free scene is a
     vanishing clutter intensity). ``fixed_existence`` turns LMIPDA into PDA (existence 1). With a sensor model the
     detection probability of a track is the radar equation's at its predicted position for a target of
     ``assumed_rcs_m2`` and ``assumed_swerling``, capped at ``max_detection_probability`` (one missed detection
@@ -627,6 +629,7 @@ class TrackerConfig:
     max_speed_mps: float = 20.0
     initial_accel_std_mps2: float = 1.0
     init_max_position_std_m: float = 10.0
+    init_max_candidates: int = 200
     max_position_std_m: float = 50.0
     min_clutter_intensity: float = 1e-15
     fixed_existence: bool = False
@@ -675,6 +678,7 @@ class TrackerConfig:
         _positive("TrackerConfig", "max_speed_mps", self.max_speed_mps)
         _positive("TrackerConfig", "initial_accel_std_mps2", self.initial_accel_std_mps2)
         _positive("TrackerConfig", "init_max_position_std_m", self.init_max_position_std_m)
+        _int_at_least("TrackerConfig", "init_max_candidates", self.init_max_candidates, 1)
         _positive("TrackerConfig", "max_position_std_m", self.max_position_std_m)
         _in_range("TrackerConfig", "min_clutter_intensity", self.min_clutter_intensity, 1e-300, 1.0, closed="(]")
         _positive("TrackerConfig", "assumed_rcs_m2", self.assumed_rcs_m2)

@@ -97,7 +97,8 @@ def ellipse_intersection(
 
     for _ in range(n_iter):  # fixed Gauss-Newton iterations, batched over tuples and starts
         res, J = residual_and_jacobian(p)
-        A = np.einsum("nsk,nski,nskj->nsij", np.broadcast_to(w, res.shape), J, J) + 1e-9 * np.eye(2)
+        A = np.einsum("nsk,nski,nskj->nsij", np.broadcast_to(w, res.shape), J, J)
+        A = A + 1e-9 * (np.trace(A, axis1=-2, axis2=-1)[..., None, None] + 1e-12) * np.eye(2)  # degenerate geometry
         g = np.einsum("nsk,nski,nsk->nsi", np.broadcast_to(w, res.shape), J, res)
         p = p + np.linalg.solve(A, g[..., None])[..., 0]
     res, J = residual_and_jacobian(p)
@@ -106,7 +107,9 @@ def ellipse_intersection(
     idx = np.arange(N)
     Jb = J[idx, best]
     info = np.einsum("nk,nki,nkj->nij", w[:, 0], Jb, Jb)
-    return p[idx, best], np.linalg.inv(info + 1e-12 * np.eye(2)), cost[idx, best]
+    # relative regularisation: a degenerate geometry (parallel gradients) yields a huge, not singular, covariance
+    info = info + 1e-9 * (np.trace(info, axis1=-2, axis2=-1)[:, None, None] + 1e-12) * np.eye(2)
+    return p[idx, best], np.linalg.inv(info), cost[idx, best]
 
 
 def range_only_candidates(

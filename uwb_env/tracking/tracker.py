@@ -298,6 +298,9 @@ class Tracker:
             if not free.any():
                 continue
             z, R = det.z[free], det.R[free]
+            if z.shape[0] > cfg.init_max_candidates:  # dense clutter: the strongest detections only
+                top = np.argsort(-det.snr[free], kind="stable")[: cfg.init_max_candidates]
+                z, R = z[top], R[top]
             names = det.measurement_names
             r, var_r = ridge_range(z, R, names, 2.0 * cfg.max_speed_mps)
             tx, rx = self.tx_pos[det.tx], self.rx_pos[det.rx]
@@ -309,7 +312,10 @@ class Tracker:
             else:
                 range_groups.append((r, var_r, tx, rx))
         if len(range_groups) >= 2:
-            p, cov = range_only_candidates(range_groups, min(3, len(range_groups)), self.area, self._starts)
+            nu = min(3, len(range_groups))
+            per_rx = max(1, int(cfg.init_max_candidates ** (1.0 / nu)))  # tuples <= init_max_candidates per subset
+            range_groups = [tuple(a[:per_rx] for a in g[:2]) + g[2:] for g in range_groups]
+            p, cov = range_only_candidates(range_groups, nu, self.area, self._starts)
             ps.append(p)
             covs.append(cov)
         p = np.concatenate(ps) if ps else np.zeros((0, 2))
@@ -320,8 +326,13 @@ class Tracker:
             & (p[:, 1] >= self.area[2])
             & (p[:, 1] <= self.area[3])
         )
-        inside &= np.trace(cov, axis1=1, axis2=2) <= 2.0 * cfg.init_max_position_std_m**2
-        p, cov = fuse_candidates(p[inside], cov[inside], self._gates[2])
+        spread = np.trace(cov, axis1=1, axis2=2)
+        inside &= spread <= 2.0 * cfg.init_max_position_std_m**2
+        p, cov, spread = p[inside], cov[inside], spread[inside]
+        if p.shape[0] > cfg.init_max_candidates:  # keep the most precise
+            best = np.argsort(spread, kind="stable")[: cfg.init_max_candidates]
+            p, cov = p[best], cov[best]
+        p, cov = fuse_candidates(p, cov, self._gates[2])
         prev = self._previous
         dt = time_s - prev.time_s
         i, j = (
