@@ -54,7 +54,7 @@ class TrackAccounting:
     gate_m: float
     held: list[list[int]] = field(default_factory=list)  # per scan, per target: track id or -1
     alive: list[BoolArray] = field(default_factory=list)
-    errors: list[FloatArray] = field(default_factory=list)  # per scan: position errors of held targets
+    errors: list[FloatArray] = field(default_factory=list)  # per scan: (K,) position error, nan where not held
     confirmed_scans: dict[int, int] = field(default_factory=lambda: defaultdict(int))
     matched_scans: dict[int, int] = field(default_factory=lambda: defaultdict(int))
 
@@ -70,7 +70,9 @@ class TrackAccounting:
             row[b] = int(ids[a])
         self.held.append(row)
         self.alive.append(alive.copy())
-        self.errors.append(np.linalg.norm(track_pos[c[i]] - target_pos[live[j]], axis=-1))
+        err = np.full(self.n_targets, np.nan)
+        err[live[j]] = np.linalg.norm(track_pos[c[i]] - target_pos[live[j]], axis=-1)
+        self.errors.append(err)
         for tid in ids[c].tolist():
             self.confirmed_scans[tid] += 1
         for tid in ids[c[i]].tolist():
@@ -112,4 +114,5 @@ class TrackAccounting:
     def rmse(self) -> float:
         """Position RMSE [m] over every held (target, scan)."""
         e = np.concatenate(self.errors) if self.errors else np.zeros(0)
+        e = e[np.isfinite(e)]
         return float(np.sqrt(np.mean(e**2))) if e.size else float("nan")

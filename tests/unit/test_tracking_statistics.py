@@ -75,12 +75,9 @@ def _turn_rmse(tracker_cfg: TrackerConfig, seeds) -> float:
     err = []
     for seed in seeds:
         acc = run_episode(sim, seed, pol)
-        held = np.array(acc.held)
-        # target 0 decelerates at 10-15 s and turns at 15-25 s: scans 40..100
-        for k in range(40, 100):
-            if held[k - 1, 0] >= 0:
-                err.append(acc.errors[k - 1][0] if acc.errors[k - 1].size == 1 else np.nan)
-    e = np.array(err)
+        # target 0 (first leg 0-5 s, decelerates 5-10 s) turns at 10-20 s: scans 40..80 (scan k at index k - 1)
+        err.append(np.array(acc.errors)[39:80, 0])
+    e = np.concatenate(err)
     return float(np.sqrt(np.nanmean(e**2)))
 
 
