@@ -603,9 +603,10 @@ class TrackerConfig:
     ``detection_probability`` is used when the tracker is given no sensor model. Existence: Markov survival
     ``survival_probability`` per scan; new tracks start at ``initial_existence`` (the prior that a two-point
     candidate is a target: low, since clutter forms several candidate pairs per scan), are confirmed at
-    ``confirm_existence`` and deleted below ``terminate_existence`` or when their position std exceeds
-    ``max_position_std_m``. Initiation: two-point differencing with the velocity gate of seed 003 section 4.2.1
-    (``max_speed_mps``) from candidates whose position std is below ``init_max_position_std_m``; new tracks get
+    ``confirm_existence`` and deleted below ``terminate_existence``, when their position std exceeds
+    ``max_position_std_m``, or when still tentative after ``tentative_max_age`` scans (confirmation time-out).
+    Initiation: two-point differencing with the velocity gate of seed 003 section 4.2.1 (``max_speed_mps``) from
+    candidates whose position std is below ``init_max_position_std_m``; new tracks get
     acceleration std ``initial_accel_std_mps2``; at most ``init_max_candidates`` candidates per scan (the most
     precise; range-only tuples use at most that many highest-SNR detections per receiver) bound the work in
     very dense clutter. ``min_clutter_intensity`` floors rho_i (a clutter-free scene is a
@@ -631,6 +632,7 @@ class TrackerConfig:
     init_max_position_std_m: float = 10.0
     init_max_candidates: int = 200
     max_position_std_m: float = 50.0
+    tentative_max_age: int = 5
     min_clutter_intensity: float = 1e-15
     fixed_existence: bool = False
     assumed_rcs_m2: float = 1.0
@@ -680,6 +682,7 @@ class TrackerConfig:
         _positive("TrackerConfig", "init_max_position_std_m", self.init_max_position_std_m)
         _int_at_least("TrackerConfig", "init_max_candidates", self.init_max_candidates, 1)
         _positive("TrackerConfig", "max_position_std_m", self.max_position_std_m)
+        _int_at_least("TrackerConfig", "tentative_max_age", self.tentative_max_age, 1)
         _in_range("TrackerConfig", "min_clutter_intensity", self.min_clutter_intensity, 1e-300, 1.0, closed="(]")
         _positive("TrackerConfig", "assumed_rcs_m2", self.assumed_rcs_m2)
         _choice("TrackerConfig", "assumed_swerling", self.assumed_swerling, (0, 1, 3))

@@ -119,7 +119,7 @@ CHIRP = {"name": "c", "pulse_duration_s": 1e-6, "bandwidth_hz": 40e6, "carrier_h
         (lambda: SensingConfig(false_alarm_probability=0.5), r"false_alarm_probability = 0.5: must be in \(0.0, 0.1\]"),
         (lambda: SensingConfig(fidelity="exact"), r"fidelity = 'exact': must be one of"),
         (lambda: ClutterConfig(density_per_m2=-1e-4), r"density_per_m2 = -0.0001"),
-        (lambda: TrackerConfig(initial_existence=0.95), r"initial_existence = 0.95: must be strictly between"),
+        (lambda: TrackerConfig(initial_existence=0.995), r"initial_existence = 0.995: must be strictly between"),
         (lambda: Box(0.0, -1.0, 0.0, 1.0), r"Box.x_max_m = -1.0: must be > x_min_m = 0.0"),
     ],
 )

@@ -194,8 +194,8 @@ def test_records_are_sorted_by_range_with_names_and_origin():
         assert [(d.tx, d.rx) for d in dets] == [(0, 0), (0, 1)]
         for d in dets:
             assert np.all(np.diff(d.z[:, 0]) >= 0)
-            assert d.measurement_names == ("bistatic_range", "range_rate")
-            assert d.z.shape[1] == 2 and d.R.shape == (len(d), 2, 2) and d.snr.shape == (len(d),)
+            assert d.measurement_names == ("bistatic_range", "range_rate", "azimuth")  # arrays measure DOA
+            assert d.z.shape[1] == 3 and d.R.shape == (len(d), 3, 3) and d.snr.shape == (len(d),)
             assert np.isfinite(d.z).all() and np.isfinite(d.R).all() and (d.snr > 0).all()
             n_target += int((d.origin >= 0).sum())
     assert n_target > 40

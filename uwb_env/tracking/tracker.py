@@ -13,8 +13,9 @@ One scan (``Tracker.step``), seed 003 section 4.2, in the order data flows:
    weighted by beta (this includes the spread-of-innovations term), existence and model probabilities updated;
 4. initiation from the measurements that belong to no track with probability above 1/2
    (``uwb_env.tracking.initiation``);
-5. confirmation above ``confirm_existence``; deletion below ``terminate_existence`` or when the position
-   uncertainty exceeds ``max_position_std_m`` (such a track no longer localises anything).
+5. confirmation above ``confirm_existence``; deletion below ``terminate_existence``, when the position
+   uncertainty exceeds ``max_position_std_m`` (such a track no longer localises anything), or when a tentative
+   track is not confirmed within ``tentative_max_age`` scans (confirmation time-out).
 
 Every track keeps a stable id, its status, age, existence, model probabilities and model-conditioned estimates;
 ``TrackSet.combined()`` gives the IMM output. A single-model tracker with ``fixed_existence`` is seed 003's
@@ -206,7 +207,8 @@ class Tracker:
         t.confirmed = t.confirmed | (t.existence >= cfg.confirm_existence)
         _, P = t.combined()
         lost = np.trace(P[:, [0, 2]][:, :, [0, 2]], axis1=1, axis2=2) > 2.0 * cfg.max_position_std_m**2
-        self.tracks = t.select((t.existence >= cfg.terminate_existence) & ~lost)
+        stale = ~t.confirmed & (t.age >= cfg.tentative_max_age)  # confirmation time-out
+        self.tracks = t.select((t.existence >= cfg.terminate_existence) & ~lost & ~stale)
         return self.tracks
 
     def _predict(self, dt: float, scan_index: int) -> None:
