@@ -213,14 +213,19 @@ class Tracker:
 
     def _predict(self, dt: float, scan_index: int) -> None:
         t = self.tracks
-        active = np.broadcast_to(self._active_mask(scan_index), t.active.shape)
+        mask = self._active_mask(scan_index)
+        active = np.broadcast_to(mask, t.active.shape)
         mu, x, P = switch_model_sets(t.active, active, t.mu, t.x, t.P)
-        Pi = restrict_transition(self.transition, active)
-        cbar, x0, P0 = imm_mix(mu, Pi, x, P)
+        # Every track shares the scan's model set: mix and predict the active models only (inactive ones are
+        # re-initialised from the combined estimate by the switch rule if they come back).
+        a = np.flatnonzero(mask)
+        Pi = restrict_transition(self.transition, active[:1])[:, a][:, :, a]
+        cbar, x0, P0 = imm_mix(mu[:, a], np.broadcast_to(Pi, (len(t), a.size, a.size)), x[:, a], P[:, a])
         F, Q = self._model_matrices(dt)
-        t.x, t.P = kf_predict(x0, P0, F[None], Q[None])
-        t.mu = np.where(active, cbar, 0.0)
-        t.mu /= t.mu.sum(axis=-1, keepdims=True)
+        x[:, a], P[:, a] = kf_predict(x0, P0, F[a][None], Q[a][None])
+        t.x, t.P = x, P
+        t.mu = np.zeros_like(mu)
+        t.mu[:, a] = cbar / cbar.sum(axis=-1, keepdims=True)
         t.active = active.copy()
         t.existence = predict_existence(t.existence, self.cfg.survival_probability)
         t.age = t.age + 1
@@ -235,33 +240,32 @@ class Tracker:
         cfg, t = self.cfg, self.tracks
         names = det.measurement_names
         m = len(names)
-        N, r = len(t), self.r
+        # all tracks share the scan's model set (see _predict): work on the active models only
+        a = np.flatnonzero(t.active[0])
+        X, PP, MU = t.x[:, a], t.P[:, a], t.mu[:, a]
+        N, r = len(t), a.size
         tx, rx = self.tx_pos[det.tx], self.rx_pos[det.rx]
         ang = angular_mask(names)
         if cfg.filter == "ukf":
-            z_hat, S0, C = ukf_moments(names, t.x, t.P, tx, rx, self.weights, ang)
+            z_hat, S0, C = ukf_moments(names, X, PP, tx, rx, self.weights, ang)
         else:
-            z_hat, S0, C = ekf_moments(names, t.x, t.P, tx, rx)
+            z_hat, S0, C = ekf_moments(names, X, PP, tx, rx)
         g2 = self._gates[m]
         nu = wrap_residual(det.z[None, None] - z_hat[:, :, None], ang)  # (N, r, M, m)
         s_diag = np.diagonal(S0, axis1=-2, axis2=-1)[:, :, None] + np.diagonal(det.R, axis1=-2, axis2=-1)[None, None]
-        ti, ri, mi = np.nonzero(np.all(nu * nu <= g2 * s_diag, axis=-1) & t.active[:, :, None])
+        ti, ri, mi = np.nonzero(np.all(nu * nu <= g2 * s_diag, axis=-1))
         S = S0[ti, ri] + det.R[mi]
         loglik, d2 = gaussian_log_likelihood(nu[ti, ri, mi], S)
         keep = d2 < g2
         ti, ri, mi, loglik, S = ti[keep], ri[keep], mi[keep], loglik[keep], S[keep]
         pd = self._pd(det, t)
         if mi.size == 0:
+            empty = np.zeros((N, r, 0))
             psi, mu, _ = lmipda(
-                np.zeros((N, r, 0)),
-                np.zeros((N, r, 0), bool),
-                t.mu,
-                t.existence,
-                pd,
-                cfg.gate_probability,
-                cfg.fixed_existence,
+                empty, empty.astype(bool), MU, t.existence, pd, cfg.gate_probability, cfg.fixed_existence
             )
-            t.existence, t.mu = psi, np.where(t.active, mu, 0.0)
+            t.existence = psi
+            t.mu[:, a] = mu
             return np.zeros(len(det), bool)
         cols, j = np.unique(mi, return_inverse=True)  # the measurements some track gates
         J = cols.size
@@ -270,18 +274,19 @@ class Tracker:
         gated = np.zeros((N, r, J), bool)
         log_ratio[ti, ri, j] = loglik - np.log(cfg.gate_probability) - np.log(rho[j])
         gated[ti, ri, j] = True
-        psi, mu, beta = lmipda(log_ratio, gated, t.mu, t.existence, pd, cfg.gate_probability, cfg.fixed_existence)
-        H = linearised_h(t.P, C)  # (N, r, m, 6), once per track and model
-        xu, Pu = joseph_update(t.x[ti, ri], t.P[ti, ri], C[ti, ri], S0[ti, ri], det.R[mi], nu[ti, ri, mi], H[ti, ri])
-        xs = np.broadcast_to(t.x[:, :, None], (N, r, J + 1, 6)).copy()
-        Ps = np.broadcast_to(t.P[:, :, None], (N, r, J + 1, 6, 6)).copy()
+        psi, mu, beta = lmipda(log_ratio, gated, MU, t.existence, pd, cfg.gate_probability, cfg.fixed_existence)
+        H = linearised_h(PP, C)  # (N, r, m, 6), once per track and model
+        xu, Pu = joseph_update(X[ti, ri], PP[ti, ri], C[ti, ri], S0[ti, ri], det.R[mi], nu[ti, ri, mi], H[ti, ri])
+        xs = np.broadcast_to(X[:, :, None], (N, r, J + 1, 6)).copy()
+        Ps = np.broadcast_to(PP[:, :, None], (N, r, J + 1, 6, 6)).copy()
         xs[ti, ri, j + 1] = xu
         Ps[ti, ri, j + 1] = Pu
-        t.x, t.P = mixture_reduce(beta, xs, Ps)
-        t.existence, t.mu = psi, np.where(t.active, mu, 0.0)
+        t.x[:, a], t.P[:, a] = mixture_reduce(beta, xs, Ps)
+        t.existence = psi
+        t.mu[:, a] = mu
         # A measurement is taken (kept from initiation) when it belongs to some track with probability > 1/2:
         # P(track t exists and measurement i is its) = psi_t+ sum_r mu_r+ beta_i^{t,r}.
-        owned = np.einsum("n,nr,nrj->j", psi, t.mu, beta[:, :, 1:])
+        owned = np.einsum("n,nr,nrj->j", psi, mu, beta[:, :, 1:])
         taken = np.zeros(len(det), bool)
         taken[cols] = owned > 0.5
         return taken
