@@ -30,6 +30,7 @@ from uwb_env.config import (
     WallConfig,
 )
 from uwb_env.scenarios import register
+from uwb_env.scenarios.indoor_rsn import PERSON_TRACKER
 
 CONCRETE = MaterialConfig("concrete", loss_db=10.0, excess_delay_s=1e-9)
 
@@ -114,6 +115,7 @@ def indoor_monostatic() -> ScenarioConfig:
         n_scans=100,
         walls=floor_plan(),
         channel=ChannelConfig(path_loss_exponent=2.0, frequency_exponent=0.0, reference_distance_m=1.0),
+        tracker=PERSON_TRACKER,
         sensing=SensingConfig(
             scan_period_s=0.2,
             false_alarm_probability=1e-3,

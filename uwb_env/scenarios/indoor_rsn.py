@@ -23,10 +23,22 @@ from uwb_env.config import (
     SegmentedTrajectoryConfig,
     SensingConfig,
     TargetConfig,
+    TrackerConfig,
     TransmitterConfig,
 )
 from uwb_env.scenarios import register
 from uwb_env.scenarios.urban_intersection import rectangle_walls
+
+# A person-scale tracker (our choice): walking speeds, metre-level initiation, Swerling III person of 1 m^2.
+PERSON_TRACKER = TrackerConfig(
+    max_speed_mps=3.0,
+    init_max_position_std_m=1.0,
+    max_position_std_m=5.0,
+    assumed_rcs_m2=1.0,
+    assumed_swerling=3,
+    initial_accel_std_mps2=0.5,
+)
+
 
 DRYWALL = MaterialConfig("drywall", loss_db=3.0, excess_delay_s=0.2e-9)
 
@@ -59,6 +71,7 @@ def indoor_rsn() -> ScenarioConfig:
         targets=(TargetConfig("person", walk, rcs_mean_m2=1.0, swerling=3),),
         n_scans=61,
         walls=rectangle_walls(-0.8, 12.3, -0.8, 6.8, DRYWALL),
+        tracker=PERSON_TRACKER,
         sensing=SensingConfig(
             scan_period_s=0.1,
             false_alarm_probability=1e-3,
