@@ -586,7 +586,7 @@ _SEED003_TRACKER_MODELS = (
 )
 # Seed 003's transition matrix over (NCV, NCA, CT-left, CT-right), rows "from"; its printed rows 3-4 sum to 1.09
 # and are read with 0.01 for 0.1 (see uwb_env.tracking.imm).
-_SEED003_TRANSITION = (
+SEED003_TRANSITION_ROWS = (
     (0.99, 0.01, 0.0, 0.0),
     (0.10, 0.70, 0.10, 0.10),
     (0.0, 0.01, 0.99, 0.0),
@@ -617,7 +617,7 @@ class TrackerConfig:
     """
 
     models: tuple[MotionModelConfig, ...] = _SEED003_TRACKER_MODELS
-    transition: tuple[tuple[float, ...], ...] = _SEED003_TRANSITION
+    transition: tuple[tuple[float, ...], ...] = SEED003_TRANSITION_ROWS
     default_models: tuple[str, ...] = ("ncv", "nca")
     model_set_windows: tuple[ModelSetWindowConfig, ...] = ()
     filter: Literal["ukf", "ekf"] = "ukf"

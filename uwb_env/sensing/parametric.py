@@ -188,7 +188,6 @@ class ParametricSensor:
         self._any_array = bool(lay.rx_has_array.any())
         self._any_doa = bool(self._doa_rx.any())
         self._fov = np.where(lay.rx_has_array, np.nan_to_num(lay.rx_fov_rad), np.inf)
-        self._wavelength = np.array([w.wavelength_m for w in self.library.waveforms])
         self._tx_index = np.arange(self.n_tx)
         area = (lay.area[1] - lay.area[0]) * (lay.area[3] - lay.area[2])
         self._clutter_total = cfg.sensing.clutter.density_per_m2 * area

@@ -19,18 +19,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from uwb_env.config import SEED003_TRANSITION_ROWS
 from uwb_env.tracking.kernels import mixture_reduce
 from uwb_env.typing import BoolArray, FloatArray
 
 SEED003_MODELS = ("ncv", "nca", "ct_left", "ct_right")
-SEED003_TRANSITION = np.array(
-    [
-        [0.99, 0.01, 0.0, 0.0],
-        [0.10, 0.70, 0.10, 0.10],
-        [0.0, 0.01, 0.99, 0.0],
-        [0.0, 0.01, 0.0, 0.99],
-    ]
-)
+SEED003_TRANSITION = np.array(SEED003_TRANSITION_ROWS)
 
 
 def restrict_transition(Pi: FloatArray, active: BoolArray) -> FloatArray:

@@ -92,8 +92,3 @@ class ImpulseWaveform:
     def covariance(self, snr: FloatArray) -> FloatArray:
         """``(N, 1, 1)`` bistatic-range covariance at scan E/N0 ``snr`` (N,)."""
         return self.range_variance(snr)[..., None, None]
-
-
-def integration_gain_db(n_pulses: int) -> float:
-    """SNR gain of coherent integration of ``n_pulses`` pulses [dB] (= 10 log10 Ns)."""
-    return linear_to_db(float(n_pulses))
