@@ -610,7 +610,8 @@ class TrackerConfig:
     acceleration std ``initial_accel_std_mps2``; at most ``init_max_candidates`` candidates per scan (the most
     precise; range-only tuples use at most that many highest-SNR detections per receiver) bound the work in
     very dense clutter. ``min_clutter_intensity`` floors rho_i (a clutter-free scene is a
-    vanishing clutter intensity). ``fixed_existence`` turns LMIPDA into PDA (existence 1). With a sensor model the
+    vanishing clutter intensity). ``fixed_existence`` turns LMIPDA into PDA association (every track
+    claims measurements as if it existed; existence is still updated for track management). With a sensor model the
     detection probability of a track is the radar equation's at its predicted position for a target of
     ``assumed_rcs_m2`` and ``assumed_swerling``, capped at ``max_detection_probability`` (one missed detection
     must not end a track).

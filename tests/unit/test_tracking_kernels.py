@@ -236,3 +236,20 @@ def test_joseph_update_keeps_covariances_symmetric_positive_definite(seed, log_s
         np.testing.assert_allclose(Pu, Pu.T)
         assert np.all(np.linalg.eigvalsh(Pu) > -1e-9 * np.abs(P).max())
         np.linalg.cholesky(Pu + 1e-12 * np.abs(P).max() * np.eye(6))
+
+
+def test_pda_mode_claims_as_if_existing_and_still_updates_existence():
+    """fixed_existence: one track's beta is IPDA's (beta is conditioned on existence); with two tracks each
+    claims with psi = 1, so the other's beta drops as if it were certain; psi is updated either way."""
+    lr = np.log([[[3.0, 0.5]]])
+    g = np.ones((1, 1, 2), bool)
+    ipda = lmipda(lr, g, np.ones((1, 1)), np.array([0.3]), np.array([0.9]), 0.99)
+    pda = lmipda(lr, g, np.ones((1, 1)), np.array([0.3]), np.array([0.9]), 0.99, fixed_existence=True)
+    np.testing.assert_allclose(pda[2], ipda[2])
+    np.testing.assert_allclose(pda[0], ipda[0])
+    two_lr = np.log([[[3.0]], [[3.0]]])
+    g2 = np.ones((2, 1, 1), bool)
+    low = np.array([0.1, 0.1])
+    lm = lmipda(two_lr, g2, np.ones((2, 1)), low, np.full(2, 0.9), 0.99)
+    pd_ = lmipda(two_lr, g2, np.ones((2, 1)), low, np.full(2, 0.9), 0.99, fixed_existence=True)
+    assert pd_[2][0, 0, 1] < lm[2][0, 0, 1]

@@ -16,7 +16,9 @@ lambda_i^{t,r} = p_i^{t,r} / rho_i against the clutter intensity rho_i (nothing 
 
 The seed's printed versions drop the model weights in p_i^t and write beta_i with "1 - P_D P_G p_i"; the lines
 above are the consistent forms (beta sums to 1 and sum_r mu_r (1 - delta^{t,r}) = 1 - delta^t; both tested).
-IPDA is one track; PDA is existence fixed at 1 (``fixed_existence=True``).
+IPDA is one track. PDA is existence fixed at 1 in the association (``fixed_existence=True``): every track claims
+measurements as if it existed (P_i uses psi = 1); beta does not depend on psi anyway (it is conditioned on
+existence), and psi is still updated, as the track-quality measure that confirmation and deletion need.
 """
 
 from __future__ import annotations
@@ -49,7 +51,8 @@ def lmipda(
     lam_t = np.einsum("nr,nrm->nm", mu, lam_tr)  # (N, M)
     pdpg = pd * pg  # (N,)
     total = lam_t.sum(axis=-1, keepdims=True)
-    P = np.where(total > 0, pdpg[:, None] * psi[:, None] * lam_t / np.where(total > 0, total, 1.0), 0.0)
+    psi_claim = np.ones_like(psi) if fixed_existence else psi
+    P = np.where(total > 0, pdpg[:, None] * psi_claim[:, None] * lam_t / np.where(total > 0, total, 1.0), 0.0)
     P = np.minimum(P, 1.0 - 1e-12)  # numerical guard: P_i -> 1 only when P_D P_G psi -> 1
     odds = lam_t * P / (1.0 - P)  # (N, M): each track's claim on each measurement
     # (N, M): Omega_i^t / rho_i; the others' claims are summed first so a huge own claim cannot cancel the 1
@@ -58,10 +61,7 @@ def lmipda(
     delta_r = pdpg[:, None] * (1.0 - share_tr.sum(axis=-1))  # (N, r)
     delta = np.einsum("nr,nr->n", mu, delta_r)  # = P_D P_G (1 - sum_i lambda_i^t / omega), mu sums to 1
     one_minus = 1.0 - delta
-    if fixed_existence:
-        psi_post = np.ones_like(psi)
-    else:
-        psi_post = one_minus * psi / (1.0 - delta * psi)
+    psi_post = one_minus * psi / (1.0 - delta * psi)
     mu_post = np.where(
         one_minus[:, None] > 0, mu * (1.0 - delta_r) / np.where(one_minus > 0, one_minus, 1.0)[:, None], mu
     )
