@@ -304,10 +304,9 @@ class Tracker:
         for det, free in unused:  # per pair: a small fixed set
             if not free.any():
                 continue
-            z, R = det.z[free], det.R[free]
-            if z.shape[0] > cfg.init_max_candidates:  # dense clutter: the strongest detections only
-                top = np.argsort(-det.snr[free], kind="stable")[: cfg.init_max_candidates]
-                z, R = z[top], R[top]
+            # strongest first, so that any cap below keeps the strongest detections (dense clutter)
+            order = np.argsort(-det.snr[free], kind="stable")[: cfg.init_max_candidates]
+            z, R = det.z[free][order], det.R[free][order]
             names = det.measurement_names
             r, var_r = ridge_range(z, R, names, 2.0 * cfg.max_speed_mps)
             tx, rx = self.tx_pos[det.tx], self.rx_pos[det.rx]
@@ -321,7 +320,7 @@ class Tracker:
         if len(range_groups) >= 2:
             nu = min(3, len(range_groups))
             per_rx = max(1, int(cfg.init_max_candidates ** (1.0 / nu)))  # tuples <= init_max_candidates per subset
-            range_groups = [tuple(a[:per_rx] for a in g[:2]) + g[2:] for g in range_groups]
+            range_groups = [(r[:per_rx], v[:per_rx], tx, rx) for r, v, tx, rx in range_groups]  # strongest kept
             p, cov = range_only_candidates(range_groups, nu, self.area, self._starts)
             ps.append(p)
             covs.append(cov)
