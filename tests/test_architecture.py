@@ -16,7 +16,8 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 def test_core_packages_import_neither_gymnasium_nor_torch():
     code = (
         "import sys; import uwb_env.config, uwb_env.scenarios, uwb_env.scene, uwb_env.waveforms, uwb_env.channel, "
-        "uwb_env.sensing, uwb_env.tracking, uwb_env.sim, uwb_env.metrics; bad = [m for m in ('gymnasium', 'torch', 'stable_baselines3') if m in sys.modules]; "
+        "uwb_env.sensing, uwb_env.tracking, uwb_env.sim, uwb_env.metrics; "
+        "bad = [m for m in ('gymnasium', 'torch', 'stable_baselines3') if m in sys.modules]; "
         "print(','.join(bad))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

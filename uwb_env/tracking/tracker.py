@@ -60,6 +60,7 @@ from uwb_env.typing import BoolArray, FloatArray, IntArray
 
 PdModel = Callable[[int, int, FloatArray], FloatArray]
 ZERO_ACCELERATION_STD = 0.01
+_PV = np.array([0, 2, 1, 3])  # state indices of (x, y, vx, vy)
 """Acceleration std [m/s^2] kept by models without acceleration (NCV, CT) so covariances stay positive definite."""
 
 
@@ -371,13 +372,12 @@ class Tracker:
         x[:, 0], x[:, 2] = p[:, 0], p[:, 1]
         v = np.einsum("nij,nj->ni", K, v_hat)
         x[:, 1], x[:, 3] = v[:, 0], v[:, 1]
-        P = np.zeros((n, 6, 6))
-        pos, vel = [0, 2], [1, 3]
         cross = cov @ np.swapaxes(K, -1, -2) / dt
-        P[:, np.ix_(pos, pos)[0], np.ix_(pos, pos)[1]] = cov
-        P[:, np.ix_(vel, vel)[0], np.ix_(vel, vel)[1]] = cov_v
-        P[:, np.ix_(pos, vel)[0], np.ix_(pos, vel)[1]] = cross
-        P[:, np.ix_(vel, pos)[0], np.ix_(vel, pos)[1]] = np.swapaxes(cross, -1, -2)
+        block = np.concatenate(  # (n, 4, 4) in the order (x, y, vx, vy), scattered once into the state order
+            [np.concatenate([cov, cross], axis=2), np.concatenate([np.swapaxes(cross, -1, -2), cov_v], axis=2)], axis=1
+        )
+        P = np.zeros((n, 6, 6))
+        P[:, _PV[:, None], _PV[None, :]] = block
         P[:, 4, 4] = P[:, 5, 5] = cfg.initial_accel_std_mps2**2
         active = np.broadcast_to(self._active_mask(scan_index), (n, self.r)).copy()
         ids = np.arange(self._next_id, self._next_id + n)
