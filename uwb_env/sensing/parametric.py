@@ -184,6 +184,11 @@ class ParametricSensor:
         self._az_r_scale = (len(self._az_range_edges) - 1) / self._az_range_edges[-1]
         self._az_scale = (len(self._az_edges) - 1) / (2.0 * math.pi)
         self._m = self.library.measurement_dim
+        self._az_slot = np.full(self.pairs.shape[0], -1, dtype=np.int64)
+        for i, p in enumerate(sorted(self._az_tables)):
+            self._az_slot[p] = i
+        self._az_stack = np.stack([self._az_tables[p] for p in sorted(self._az_tables)]) if self._az_tables else None
+        self._all_doa = bool((self._az_slot >= 0).all())
         self._rdot_var = cfg.sensing.clutter.range_rate_max_mps**2 / 3.0
         self._any_array = bool(lay.rx_has_array.any())
         self._any_doa = bool(self._doa_rx.any())
@@ -198,6 +203,10 @@ class ParametricSensor:
         self._rx_x, self._rx_y = lay.rx_pos[:, 0].copy(), lay.rx_pos[:, 1].copy()
         self._cos_fov = np.cos(np.minimum(self._fov, math.pi))
         self._unit_chol = [None if c is None else np.linalg.cholesky(c) for c in self._unit_cov]
+        self._all_unit_chol = all(c is not None for c in self._unit_chol)
+        self._unit_chol_stack = np.stack(self._unit_chol) if self._all_unit_chol else None
+        self._unit_cov_stack = np.stack(self._unit_cov) if self._all_unit_chol else None
+        self._wavelengths = np.array([w.wavelength_m for w in self.library.waveforms])
 
     # ------------------------------------------------------------------------------------------------ geometry
     def episode_geometry(self, truth: Truth) -> EpisodeGeometry:
@@ -439,19 +448,30 @@ class ParametricSensor:
         r_t = np.broadcast_to(np.arange(R)[None, None, :, None], (S, T, R, K)).reshape(-1)
         t_t = np.broadcast_to(np.arange(T)[None, :, None, None], (S, T, R, K)).reshape(-1)
 
-        target_rows = np.empty((W, *template.shape))
-        target_hit = np.empty((W, S, T, R, K), dtype=bool)
+        clutter_azimuth: dict[float, tuple[FloatArray, FloatArray]] = {}  # false alarms: per carrier, not waveform
+        snr_all = self.radar_constant[:, None, :, :, None] * fading[None]  # (W, S, T, R, K)
+        target_hit = np.abs(np.sqrt(snr_all) + offset[None]) > level[None]
+        if self._all_unit_chol:  # every waveform in one batch (per-row waveform index)
+            n_t = e_t.shape[0]
+            rows = np.tile(template.reshape(-1, col["n"]), (W, 1))
+            rows[:, col["snr"]] = snr_all.reshape(-1)
+            tile = lambda a: np.tile(a, (W, 1)) if a.ndim == 2 else np.tile(a, W)  # noqa: E731
+            self._measure(
+                rows, tile(e_t), tile(az_t), tile(n_az_t), tile(t_t), tile(r_t), np.repeat(np.arange(W), n_t), m
+            )
+            target_rows = rows.reshape(W, *template.shape)
+        else:
+            target_rows = np.empty((W, *template.shape))
+            for w in range(W):  # the waveform library: a small fixed set
+                rows = template.reshape(-1, col["n"]).copy()
+                rows[:, col["snr"]] = snr_all[w].reshape(-1)
+                self._measure(rows, e_t, az_t, n_az_t, t_t, r_t, w, m)
+                target_rows[w] = rows.reshape(template.shape)
         clutter_rows = np.empty((W, n_c, col["n"]))
+        c_scale = 1.0 / np.sqrt(c_base[:, col["snr"]])  # false alarms' SNR is the same for every waveform
         for w in range(W):  # the waveform library: a small fixed set
-            snr = self.radar_constant[w][None, :, :, None] * fading
-            target_hit[w] = np.abs(np.sqrt(snr) + offset) > level
-            rows = template.reshape(-1, col["n"]).copy()
-            rows[:, col["snr"]] = snr.reshape(-1)
-            self._measure(rows, e_t, az_t, n_az_t, t_t, r_t, w, m)
-            target_rows[w] = rows.reshape(template.shape)
-            rows = c_base.copy()
-            self._measure(rows, c_e[:, :m], c_az, c_e[:, m], c_t, c_r, w, m)
-            clutter_rows[w] = rows
+            clutter_rows[w] = c_base
+            self._measure(clutter_rows[w], c_e[:, :m], c_az, c_e[:, m], c_t, c_r, w, m, clutter_azimuth, c_scale)
         return EpisodeSensing(
             geometry=geom,
             target_rows=target_rows,
@@ -470,40 +490,69 @@ class ParametricSensor:
         n_az: FloatArray,
         tx: np.ndarray,
         rx: np.ndarray,
-        w: int,
+        w: int | np.ndarray,
         m: int,
+        azimuth_cache: dict[float, tuple[FloatArray, FloatArray]] | None = None,
+        inv_sqrt_snr: FloatArray | None = None,
     ) -> None:
         """Measure noise-free rows through waveform ``w`` (in place).
 
         Adds the measurement noise and fills the azimuth, azimuth-variance and clutter-intensity columns;
-        ``e`` (n, m) and ``n_az`` (n,) are standard normals.
+        ``e`` (n, m) and ``n_az`` (n,) are standard normals. ``w`` is one waveform, or ``(n,)`` waveform indices
+        when every waveform's R scales as 1 / SNR. When the rows' SNR does not depend on the waveform (false
+        alarms), ``azimuth_cache`` shares the azimuth columns (and their map bins) between waveforms of the same
+        carrier, and ``inv_sqrt_snr`` (n,) the noise scaling.
         """
         col = _columns(m)
         snr = rows[:, col["snr"]]
-        safe = np.where(snr > 0, snr, 1.0)  # cells with no echo are never detected; keep their rows finite
-        wf = self.library[w]
-        L = self._unit_chol[w]
-        if L is not None:  # R = R1 / snr: noise chol(R1) e / sqrt(snr), lower-triangular products written out
+        # cells with no echo are never detected; keep their rows finite (false alarms always have snr > 0)
+        safe = snr if inv_sqrt_snr is not None else np.where(snr > 0, snr, 1.0)
+        if isinstance(w, np.ndarray):  # per-row waveforms, all with R = R1 / snr
             scaled = e / np.sqrt(safe)[:, None]
+            rows[:, 1 : 1 + m] += np.einsum("nij,nj->ni", self._unit_chol_stack[w], scaled)
+            R1 = self._unit_cov_stack[w]
+            ridge = R1[:, 0, 1] / R1[:, 1, 1] if m == 2 else 0.0
+            rdot_var = R1[:, 1, 1] / safe if m == 2 else None
+            wavelength = self._wavelengths[w]
+        elif self._unit_chol[w] is not None:  # R = R1 / snr: noise chol(R1) e / sqrt(snr)
+            L = self._unit_chol[w]
+            scaled = e * (1.0 / np.sqrt(safe) if inv_sqrt_snr is None else inv_sqrt_snr)[:, None]
             for i in range(m):  # m <= 2 measurement components
                 rows[:, 1 + i] += scaled[:, : i + 1] @ L[i, : i + 1]
             R1 = self._unit_cov[w]
             ridge = R1[0, 1] / R1[1, 1] if m == 2 else 0.0
             rdot_var = R1[1, 1] / safe if m == 2 else None
+            wavelength = self._wavelengths[w]
         else:
-            cov = wf.covariance(safe)
+            cov = self.library[w].covariance(safe)
             rows[:, 1 : 1 + m] += np.einsum("nij,nj->ni", np.linalg.cholesky(cov), e)
             ridge = cov[:, 0, 1] / cov[:, 1, 1] if m == 2 else 0.0
             rdot_var = cov[:, 1, 1] if m == 2 else None
+            wavelength = self._wavelengths[w]
         if self._any_doa:
-            doa = self._doa_rx[rx]
-            off = _wrap(az - self._boresight[rx])
-            var = azimuth_variance(
-                safe, self.layout.rx_n_elements[rx], self.layout.rx_spacing_m[rx], wf.wavelength_m, off
-            )
-            rows[:, col["az"]] = np.where(doa, _wrap(az + np.sqrt(np.where(doa, var, 0.0)) * n_az), 0.0)
-            rows[:, col["az_var"]] = np.where(doa, var, 0.0)
-        rows[:, col["rho"]] = self._clutter_intensity(rows, ridge, rdot_var)
+            key = float(np.max(wavelength))  # the cache is used with one waveform (one carrier) per call
+            cached = None if azimuth_cache is None else azimuth_cache.get(key)
+            if cached is None:
+                doa = self._doa_rx[rx]
+                off = _wrap(az - self._boresight[rx])
+                var = azimuth_variance(
+                    safe, self.layout.rx_n_elements[rx], self.layout.rx_spacing_m[rx], wavelength, off
+                )
+                cached = (
+                    np.where(doa, _wrap(az + np.sqrt(np.where(doa, var, 0.0)) * n_az), 0.0),
+                    np.where(doa, var, 0.0),
+                )
+                if azimuth_cache is not None:
+                    azimuth_cache[key] = cached
+            rows[:, col["az"]], rows[:, col["az_var"]] = cached[:2]
+        az_bins = None
+        if self._any_doa and azimuth_cache is not None:
+            entry = azimuth_cache[key]
+            if len(entry) == 2:  # first waveform of this carrier: bin the azimuths once
+                entry = (*entry, self._azimuth_bins(rows[:, col["az"]]))
+                azimuth_cache[key] = entry
+            az_bins = entry[2]
+        rows[:, col["rho"]] = self._clutter_intensity(rows, ridge, rdot_var, az_bins)
 
     # ----------------------------------------------------------------------------------------------------- scan
     def sense(self, episode: EpisodeSensing, k: int, plan: ScanPlan, time_s: float = 0.0) -> tuple[Detections, ...]:
@@ -569,8 +618,16 @@ class ParametricSensor:
             )
         return tuple(out)
 
+    def _azimuth_bins(self, az: FloatArray) -> np.ndarray:
+        """Azimuth bin indices (padded table) of measured azimuths [rad]."""
+        return np.minimum(((az + math.pi) * self._az_scale).astype(np.int64) + 1, self._az_stack.shape[2] - 1)
+
     def _clutter_intensity(
-        self, rows: FloatArray, ridge: FloatArray | float, rdot_var: FloatArray | None
+        self,
+        rows: FloatArray,
+        ridge: FloatArray | float,
+        rdot_var: FloatArray | None,
+        az_bins: np.ndarray | None = None,
     ) -> FloatArray:
         """``(n,)`` known clutter map at each row's measurement, azimuth factor apart (module docstring, item 6).
 
@@ -583,17 +640,19 @@ class ParametricSensor:
         """
         pair = rows[:, 0].astype(np.int64)
         r = rows[:, 1] if rdot_var is None else rows[:, 1] - ridge * rows[:, 2]
-        b = (np.clip(r, -1.0, self._range_edges[-1]) * self._bin_scale).astype(np.int64) + 1
-        rho = self._range_table[pair, np.minimum(b, self._range_table.shape[1] - 1)]
-        for p, table in self._az_tables.items():  # pairs with a DOA receiver: their (range, azimuth) map
-            sel = pair == p
-            if sel.any():
-                rs = np.clip(r[sel], -1.0, self._az_range_edges[-1])
-                br = np.minimum((rs * self._az_r_scale).astype(np.int64) + 1, table.shape[0] - 1)
-                ba = np.minimum(
-                    ((rows[sel, 1 + self._m] + math.pi) * self._az_scale).astype(np.int64) + 1, table.shape[1] - 1
-                )
-                rho[sel] = table[br, ba]
+        slot = self._az_slot[pair]
+        range_only = slot < 0
+        rho = np.empty(rows.shape[0])
+        if not self._all_doa:  # pairs without azimuth: the bistatic-range map
+            i = np.flatnonzero(range_only)
+            b = (np.clip(r[i], -1.0, self._range_edges[-1]) * self._bin_scale).astype(np.int64) + 1
+            rho[i] = self._range_table[pair[i], np.minimum(b, self._range_table.shape[1] - 1)]
+        if self._az_stack is not None:  # pairs with a DOA receiver: their (range, azimuth) map, one look-up
+            i = slice(None) if self._all_doa else np.flatnonzero(~range_only)
+            nr = self._az_stack.shape[1]
+            br = (np.clip(r[i], -1.0, self._az_range_edges[-1]) * self._az_r_scale).astype(np.int64) + 1
+            ba = self._azimuth_bins(rows[i, 1 + self._m]) if az_bins is None else az_bins[i]
+            rho[i] = self._az_stack[slot[i], np.minimum(br, nr - 1), ba]
         if rdot_var is not None:
             var = rdot_var + self._rdot_var
             rho = rho * np.exp(-0.5 * rows[:, 2] ** 2 / var) / np.sqrt(2.0 * math.pi * var)
