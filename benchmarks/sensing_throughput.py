@@ -1,6 +1,7 @@
 """Parametric sensing throughput (scans per second) for every scenario, in one process.
 
-Run: python benchmarks/sensing_throughput.py [--episodes N] [--repeats R]
+Run: python benchmarks/sensing_throughput.py [--episodes N] [--repeats R] [--set KEY=VALUE ...]
+(e.g. ``--set sensing.measure_doa=false``: YAML values, dotted keys of the scenario config)
 
 Each episode is what an environment does: draw the truth, ``ParametricSensor.new_episode`` (geometry and all
 plan-independent draws), then ``sense()`` every scan with a round-robin waveform plan. The headline figure
@@ -14,14 +15,16 @@ import argparse
 import statistics
 import time
 
+import yaml
+
 from uwb_env import scenarios
 from uwb_env.rng import RngStreams
 from uwb_env.scene import sample_truth
 from uwb_env.sensing import ParametricSensor, ScanPlan
 
 
-def measure(name: str, n_episodes: int) -> dict[str, float]:
-    cfg = scenarios.get(name)
+def measure(name: str, n_episodes: int, overrides: dict | None = None) -> dict[str, float]:
+    cfg = scenarios.get(name, **(overrides or {}))
     sensor = ParametricSensor(cfg)
     n_w = len(sensor.library)
     plans = [ScanPlan.all_listening(w, sensor.n_tx, sensor.n_rx) for w in range(n_w)]
@@ -55,11 +58,13 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--episodes", type=int, default=100)
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="scenario override")
     args = ap.parse_args()
+    overrides = {k: yaml.safe_load(v) for k, v in (item.split("=", 1) for item in args.set)}
     head = f"{'scenario':20s} {'targets':>7s} {'pairs':>5s} {'scans/s (episode)':>24s} {'scans/s (sense)':>24s}"
     print(head + f" {'reset ms/episode':>17s}")
     for name in scenarios.names():
-        runs = [measure(name, args.episodes) for _ in range(args.repeats)]
+        runs = [measure(name, args.episodes, overrides) for _ in range(args.repeats)]
 
         def fmt(key: str, runs: list[dict[str, float]] = runs) -> str:
             v = [r[key] for r in runs]
