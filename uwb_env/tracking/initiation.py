@@ -159,9 +159,11 @@ def fuse_candidates(p: FloatArray, cov: FloatArray, gate_d2: float) -> tuple[Flo
     n = p.shape[0]
     if n <= 1:
         return p, cov
-    d = p[:, None] - p[None]
-    S = cov[:, None] + cov[None]
-    d2 = np.einsum("abi,abi->ab", d, np.linalg.solve(S, d[..., None])[..., 0])
+    dx, dy = p[:, None, 0] - p[None, :, 0], p[:, None, 1] - p[None, :, 1]
+    a = cov[:, None, 0, 0] + cov[None, :, 0, 0]
+    b = cov[:, None, 0, 1] + cov[None, :, 0, 1]
+    c = cov[:, None, 1, 1] + cov[None, :, 1, 1]
+    d2 = (c * dx * dx - 2.0 * b * dx * dy + a * dy * dy) / (a * c - b * b)  # 2 x 2 Mahalanobis, closed form
     np.fill_diagonal(d2, np.inf)
     nn = np.argmin(d2, axis=1)
     idx = np.arange(n)

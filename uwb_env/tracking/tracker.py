@@ -170,6 +170,7 @@ class Tracker:
         self._next_id = 0
         self._previous = _Candidates()
         self._time: float | None = None
+        self._pd_cache: dict[tuple[int, int], FloatArray] = {}
 
     def _active_mask(self, scan_index: int) -> BoolArray:
         names = self.cfg.active_models(scan_index)
@@ -199,6 +200,7 @@ class Tracker:
         if self._time is not None and len(self.tracks):
             self._predict(time_s - self._time, scan_index)
         self._time = time_s
+        self._pd_cache: dict[tuple[int, int], FloatArray] = {}
         unused = []
         for det in detections:  # receiver by receiver, sequentially (seed 003)
             used = self._update(det) if len(self.tracks) and len(det) else np.zeros(len(det), bool)
@@ -293,10 +295,19 @@ class Tracker:
         return taken
 
     def _pd(self, det: Detections, t: TrackSet) -> FloatArray:
+        """Detection probability of each track at this pair: the sensor model at the scan's predicted positions.
+
+        Evaluated once per scan for all pairs (the prediction is the same for every receiver of the scan).
+        """
         if self.pd_model is None:
             return np.full(len(t), self.cfg.detection_probability)
-        x, _ = t.combined()
-        return np.asarray(self.pd_model(det.tx, det.rx, x[:, [0, 2]]), dtype=float)
+        if not self._pd_cache:
+            x, _ = t.combined()
+            self._pd_positions = x[:, [0, 2]]
+        key = (det.tx, det.rx)
+        if key not in self._pd_cache:
+            self._pd_cache[key] = np.asarray(self.pd_model(det.tx, det.rx, self._pd_positions), dtype=float)
+        return self._pd_cache[key]
 
     # ------------------------------------------------------------------------------------------ initiation
     def _initiate(self, unused: list[tuple[Detections, BoolArray]], time_s: float, scan_index: int) -> None:
