@@ -12,25 +12,13 @@ position RMSE of confirmed tracks, identity kept across the crossing (with --ide
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import time
 
 import numpy as np
 
 from uwb_env import scenarios
-from uwb_env.config import MotionModelConfig
+from uwb_env.config import open_loop_tracker
 from uwb_env.sim import Simulator, round_robin, run_episode
-
-
-def baseline(cfg):
-    """Seed 003's open-loop tracker: one NCV UKF (the same machinery with one model)."""
-    return dataclasses.replace(
-        cfg.tracker,
-        models=(MotionModelConfig("ncv", "ncv", 0.5),),
-        transition=((1.0,),),
-        default_models=("ncv",),
-        model_set_windows=(),
-    )
 
 
 def main() -> None:
@@ -50,7 +38,7 @@ def main() -> None:
     args = ap.parse_args()
     overrides = {"sensing.clutter.density_per_m2": 0.0} if args.no_clutter else {}
     cfg = scenarios.get(args.scenario, **overrides)
-    sim = Simulator(cfg, baseline(cfg) if args.baseline else None)
+    sim = Simulator(cfg, open_loop_tracker(cfg.tracker) if args.baseline else None)
     policy = round_robin(sim.sensor)
     both, false, cov, rmse, ident, first = [], [], [], [], [], []
     t0 = time.perf_counter()

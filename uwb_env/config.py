@@ -697,6 +697,17 @@ class TrackerConfig:
         return self.default_models
 
 
+def open_loop_tracker(tracker: TrackerConfig, accel_noise_std_mps2: float = 0.5) -> TrackerConfig:
+    """Seed 003's open-loop baseline tracker: one NCV UKF -- the same machinery with a single model."""
+    return dataclasses.replace(
+        tracker,
+        models=(MotionModelConfig("ncv", "ncv", accel_noise_std_mps2),),
+        transition=((1.0,),),
+        default_models=("ncv",),
+        model_set_windows=(),
+    )
+
+
 # ------------------------------------------------------------------------------------------------------- scenario
 @dataclass(frozen=True, slots=True)
 class ScenarioConfig:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
@@ -13,16 +12,12 @@ from scipy.stats import chi2
 
 from tests.conftest import tiny_config
 from uwb_env import scenarios
-from uwb_env.config import MotionModelConfig, TrackerConfig, apply_overrides
+from uwb_env.config import TrackerConfig, apply_overrides, open_loop_tracker
 from uwb_env.scene.motion_models import ncv_transition, process_noise
 from uwb_env.sensing import Detections
 from uwb_env.sim import Simulator, round_robin, run_episode
 from uwb_env.tracking import Tracker, UnscentedWeights, ekf_moments, joseph_update, kf_predict, ukf_moments
 from uwb_env.tracking.measurement import angular_mask, measure, wrap_residual
-
-NCV_ONLY = dict(
-    models=(MotionModelConfig("ncv", "ncv", 0.5),), transition=((1.0,),), default_models=("ncv",), model_set_windows=()
-)
 
 
 @pytest.mark.parametrize(("names", "filt"), [(("x", "y"), "ekf"), (("bistatic_range", "azimuth"), "ukf")])
@@ -83,7 +78,7 @@ def _turn_rmse(tracker_cfg: TrackerConfig, seeds) -> float:
 
 def test_vs_imm_beats_a_single_ncv_filter_during_the_turn():
     cfg = scenarios.get("urban-intersection")
-    ncv = dataclasses.replace(cfg.tracker, **NCV_ONLY)
+    ncv = open_loop_tracker(cfg.tracker)
     seeds = range(4)
     imm_rmse = _turn_rmse(cfg.tracker, seeds)
     ncv_rmse = _turn_rmse(ncv, seeds)

@@ -65,7 +65,6 @@ class EpisodeGeometry:
         bistatic_range: ``(S, T, R, K)`` [m], excess delay bias included as range.
         range_rate: ``(S, T, R, K)`` [m/s].
         azimuth: ``(S, R, K)`` [rad] global azimuth seen from each receiver.
-        off_boresight: ``(S, R, K)`` [rad] (nan for receivers without array).
         unit_snr: ``(S, T, R, K)`` SNR per unit radar constant: sigma_mean / (l_t l_r / d0^2)^rho / L_walls.
         covered: ``(S, T, R, K)`` alive, in range, out of the blind zone, not blocked, in the field of view.
     """
@@ -73,7 +72,6 @@ class EpisodeGeometry:
     bistatic_range: FloatArray
     range_rate: FloatArray
     azimuth: FloatArray
-    off_boresight: FloatArray
     unit_snr: FloatArray
     covered: BoolArray
 
@@ -198,7 +196,7 @@ class ParametricSensor:
         self._clutter_total = cfg.sensing.clutter.density_per_m2 * area
         self._unit_cov = [w.unit_covariance for w in self.library.waveforms]
         self._geometry_cache: tuple[FloatArray, BoolArray, EpisodeGeometry] | None = None
-        self._valid_plans: dict[int, tuple[ScanPlan, tuple[FloatArray, bool, int, bool, list[int]]]] = {}
+        self._valid_plans: dict[int, tuple[ScanPlan, tuple[bool, int, bool, list[int]]]] = {}
         self._bx, self._by = np.cos(self._boresight), np.sin(self._boresight)
         self._rx_x, self._rx_y = lay.rx_pos[:, 0].copy(), lay.rx_pos[:, 1].copy()
         self._cos_fov = np.cos(np.minimum(self._fov, math.pi))
@@ -209,47 +207,56 @@ class ParametricSensor:
         self._wavelengths = np.array([w.wavelength_m for w in self.library.waveforms])
 
     # ------------------------------------------------------------------------------------------------ geometry
+    def _links(self, tx: slice, rx: slice, pos: FloatArray) -> tuple[FloatArray, ...]:
+        """Geometry and coverage of the (tx, rx) links to points ``pos`` (N, 2): the one place the coverage rules live.
+
+        Returns ``(lt (T, N), lr (R, N), loss_db (T, R, N), delay_s (T, R, N), azimuth (R, N), covered (T, R, N),
+        unit_snr (T, R, N))``: covered = both legs within ``max_range_m``, out of the blind zone, not behind an opaque
+        wall, in the array's field of view and a formed pair; unit_snr = 1 / (l_t l_r / d0^2)^rho / L_walls (per
+        unit radar constant and RCS).
+        """
+        lay, sens, ch = self.layout, self.cfg.sensing, self.cfg.channel
+        tx_pos, rx_pos = lay.tx_pos[tx], lay.rx_pos[rx]
+        lt, lr = leg_lengths(tx_pos, rx_pos, pos)
+        loss_db, delay_s = pair_obstruction(
+            tx_pos, rx_pos, pos, lay.wall_start, lay.wall_end, lay.wall_loss_db, lay.wall_delay_s
+        )
+        in_view, az, _ = in_field_of_view(rx_pos, lay.rx_boresight_rad[rx], lay.rx_fov_rad[rx], pos)
+        covered = (
+            (lt[:, None] <= sens.max_range_m)
+            & (lr[None] <= sens.max_range_m)
+            & ~blind_zone(lt[:, None] + lr[None], self.baseline[tx, rx], sens.blind_zone_excess_m)
+            & np.isfinite(loss_db)
+            & in_view[None]
+            & self.pair_mask[tx, rx][..., None]
+        )
+        product = (np.maximum(lt, 1e-6)[:, None] * np.maximum(lr, 1e-6)[None]) / ch.reference_distance_m**2
+        with np.errstate(over="ignore"):
+            unit_snr = 1.0 / product**ch.path_loss_exponent * 10.0 ** (-loss_db / 10.0)
+        return lt, lr, loss_db, delay_s, az, covered, unit_snr
+
     def episode_geometry(self, truth: Truth) -> EpisodeGeometry:
         """All truth-dependent geometry of the episode, vectorised over scans x pairs x targets."""
-        lay, sens, ch = self.layout, self.cfg.sensing, self.cfg.channel
+        lay = self.layout
         S, K = truth.states.shape[:2]
         pos = truth.states[..., [0, 2]].reshape(-1, 2)
         vel = truth.states[..., [1, 3]].reshape(-1, 2)
-        lt, lr = leg_lengths(lay.tx_pos, lay.rx_pos, pos)  # (T, SK), (R, SK)
+        every = slice(None)
+        lt, lr, _, delay_s, az, covered, unit_snr = self._links(every, every, pos)  # (T, SK), (R, SK), (T, R, SK)
         lt_s, lr_s = np.maximum(lt, 1e-6), np.maximum(lr, 1e-6)
         ut = (pos[None] - lay.tx_pos[:, None]) / lt_s[..., None]
         ur = (pos[None] - lay.rx_pos[:, None]) / lr_s[..., None]
         rdot = np.einsum("tnd,nd->tn", ut, vel)[:, None] + np.einsum("rnd,nd->rn", ur, vel)[None]
-        rng_bi = lt[:, None] + lr[None]  # (T, R, SK)
-        loss_db, delay_s = pair_obstruction(
-            lay.tx_pos, lay.rx_pos, pos, lay.wall_start, lay.wall_end, lay.wall_loss_db, lay.wall_delay_s
-        )
-        in_view, az, off = in_field_of_view(lay.rx_pos, lay.rx_boresight_rad, lay.rx_fov_rad, pos)
-        d0 = ch.reference_distance_m
-        product = (lt_s[:, None] * lr_s[None]) / d0**2
-        rcs = np.tile(self.rcs_mean, S)
-        with np.errstate(over="ignore"):
-            unit_snr = rcs / product**ch.path_loss_exponent * 10.0 ** (-loss_db / 10.0)
-        alive = truth.alive.reshape(-1)
-        covered = (
-            alive[None, None]
-            & (lt[:, None] <= sens.max_range_m)
-            & (lr[None] <= sens.max_range_m)
-            & ~blind_zone(rng_bi, self.baseline, sens.blind_zone_excess_m)
-            & np.isfinite(loss_db)
-            & in_view[None]
-            & self.pair_mask[..., None]
-        )
+        covered &= truth.alive.reshape(-1)[None, None]
 
         def per_scan(a: np.ndarray) -> np.ndarray:
             return np.moveaxis(a.reshape(*a.shape[:-1], S, K), -2, 0)
 
         return EpisodeGeometry(
-            bistatic_range=per_scan(rng_bi + SPEED_OF_LIGHT_MPS * delay_s),
+            bistatic_range=per_scan(lt[:, None] + lr[None] + SPEED_OF_LIGHT_MPS * delay_s),
             range_rate=per_scan(rdot),
             azimuth=per_scan(az),
-            off_boresight=per_scan(off),
-            unit_snr=per_scan(unit_snr),
+            unit_snr=per_scan(unit_snr * np.tile(self.rcs_mean, S)),
             covered=per_scan(covered),
         )
 
@@ -560,7 +567,7 @@ class ParametricSensor:
 
         Selects the scan's rows of the waveforms the plan sends, sorts them by (pair, range) and splits per pair.
         """
-        _, all_active, w0, single, waveform_of_tx = self._validate(plan)
+        all_active, w0, single, waveform_of_tx = self._validate(plan)
         m = self.library.measurement_dim
         col = _columns(m)
         active = plan.active_rx
@@ -667,12 +674,12 @@ class ParametricSensor:
             cov[sel] = self.library[w].covariance(snr[sel])
         return cov
 
-    def _validate(self, plan: ScanPlan) -> tuple[FloatArray, bool, int, bool, list[int]]:
+    def _validate(self, plan: ScanPlan) -> tuple[bool, int, bool, list[int]]:
         """Validate a plan and derive what a scan needs from it, once.
 
-        Plans are immutable, so a validated plan is remembered by identity. Returns the radar constants
-        ``(T, R, 1)`` of the plan's waveforms, whether every receiver listens, the first waveform, whether one
-        waveform with a 1/SNR covariance serves all transmitters, and the waveform of each transmitter.
+        Plans are immutable, so a validated plan is remembered by identity. Returns whether every receiver
+        listens, the first waveform, whether one waveform with a 1/SNR covariance serves all transmitters, and the
+        waveform of each transmitter.
         """
         hit = self._valid_plans.get(id(plan))
         if hit is not None and hit[0] is plan:
@@ -681,7 +688,6 @@ class ParametricSensor:
         waveforms = set(plan.waveform.tolist())
         w0 = int(plan.waveform[0])
         derived = (
-            self.radar_constant[plan.waveform, self._tx_index][..., None],
             bool(plan.active_rx.all()),
             w0,
             len(waveforms) == 1 and self._unit_chol[w0] is not None,
@@ -698,20 +704,14 @@ class ParametricSensor:
         """Pd ``(N,)`` of pair (tx, rx) with ``waveform`` for targets at ``positions`` (N, 2) [m].
 
         The sensor model a tracker or a lookahead may use: the radar equation with walls, range limits, blind zone
-        and field of view at the given positions, for an assumed mean RCS and Swerling case.
+        and field of view at the given positions (the rules of the sensing itself), for an assumed mean RCS and
+        Swerling case.
         """
-        lay, sens, ch = self.layout, self.cfg.sensing, self.cfg.channel
         pos = np.asarray(positions, dtype=float).reshape(-1, 2)
-        t_pos, r_pos = lay.tx_pos[tx : tx + 1], lay.rx_pos[rx : rx + 1]
-        lt, lr = leg_lengths(t_pos, r_pos, pos)
-        loss, _ = pair_obstruction(t_pos, r_pos, pos, lay.wall_start, lay.wall_end, lay.wall_loss_db, lay.wall_delay_s)
-        in_view, _, _ = in_field_of_view(r_pos, lay.rx_boresight_rad[rx : rx + 1], lay.rx_fov_rad[rx : rx + 1], pos)
-        ok = (lt[0] <= sens.max_range_m) & (lr[0] <= sens.max_range_m) & in_view[0] & np.isfinite(loss[0, 0])
-        ok &= lt[0] + lr[0] - self.baseline[tx, rx] >= sens.blind_zone_excess_m
-        product = np.maximum(lt[0] * lr[0], 1e-12) / ch.reference_distance_m**2
-        snr = self.radar_constant[waveform, tx, rx] * rcs_m2 / product**ch.path_loss_exponent
-        snr = snr * 10.0 ** (-np.where(ok, loss[0, 0], 0.0) / 10.0)
-        return np.where(ok, detection_probability(snr, sens.false_alarm_probability, swerling), 0.0)
+        *_, covered, unit_snr = self._links(slice(tx, tx + 1), slice(rx, rx + 1), pos)
+        ok = covered[0, 0]
+        snr = np.where(ok, self.radar_constant[waveform, tx, rx] * rcs_m2 * unit_snr[0, 0], 0.0)
+        return np.where(ok, detection_probability(snr, self.cfg.sensing.false_alarm_probability, swerling), 0.0)
 
     def range_density(self, tx: int, rx: int) -> tuple[FloatArray, FloatArray]:
         """The pair's clutter density in bistatic range: bin edges ``(n + 1,)`` [m], density ``(n,)`` [1/m]."""
