@@ -36,6 +36,7 @@ from scipy.stats import chi2
 from uwb_env.config import TrackerConfig
 from uwb_env.scene.motion_models import model_transition, process_noise
 from uwb_env.sensing.records import Detections
+from uwb_env.tracking import compiled
 from uwb_env.tracking.imm import imm_combine, imm_mix, restrict_transition, switch_model_sets
 from uwb_env.tracking.initiation import (
     fuse_candidates,
@@ -59,6 +60,8 @@ from uwb_env.tracking.measurement import angular_mask, wrap_residual
 from uwb_env.typing import BoolArray, FloatArray, IntArray
 
 PdModel = Callable[[int, int, FloatArray], FloatArray]
+BACKENDS = ("compiled", "numpy")
+"""Kernel back ends: ``compiled`` (numba, fused per scan; the default) and ``numpy`` (the reference kernels)."""
 ZERO_ACCELERATION_STD = 0.01
 _PV = np.array([0, 2, 1, 3])  # state indices of (x, y, vx, vy)
 """Acceleration std [m/s^2] kept by models without acceleration (NCV, CT) so covariances stay positive definite."""
@@ -111,8 +114,8 @@ class TrackSet:
         return TrackSet(*(np.concatenate([getattr(self, f), getattr(other, f)]) for f in _FIELDS))
 
     def combined(self) -> tuple[FloatArray, FloatArray]:
-        """IMM output: combined means ``(N, 6)`` and covariances ``(N, 6, 6)``."""
-        return imm_combine(self.mu, self.x, self.P)
+        """IMM output: combined means ``(N, 6)`` and covariances ``(N, 6, 6)`` (compiled imm_combine)."""
+        return compiled.combine(self.mu, self.x, self.P)
 
 
 _FIELDS = ("ids", "confirmed", "age", "born", "existence", "mu", "active", "x", "P")
@@ -133,7 +136,9 @@ class Tracker:
     Args:
         cfg: tracker configuration; tx_pos, rx_pos: ``(T, 2)``, ``(R, 2)`` node positions [m];
         area: surveillance area ``[x_min, x_max, y_min, y_max]`` [m] (candidates outside are dropped);
-        pd_model: optional ``(tx, rx, positions (N, 2)) -> Pd (N,)``.
+        pd_model: optional ``(tx, rx, positions (N, 2)) -> Pd (N,)``;
+        backend: ``"compiled"`` (numba kernels of ``uwb_env.tracking.compiled``, default) or ``"numpy"`` (the
+            reference kernels); both give the same tracks to rounding error (tested).
     """
 
     def __init__(
@@ -143,7 +148,11 @@ class Tracker:
         rx_pos: FloatArray,
         area: FloatArray,
         pd_model: PdModel | None = None,
+        backend: str = "compiled",
     ) -> None:
+        if backend not in BACKENDS:
+            raise ValueError(f"backend={backend!r}: must be one of {BACKENDS}")
+        self.backend = backend
         self.cfg = cfg
         self.tx_pos, self.rx_pos = np.asarray(tx_pos, float), np.asarray(rx_pos, float)
         self.area = np.asarray(area, float)
@@ -152,6 +161,9 @@ class Tracker:
         self.r = len(cfg.models)
         self.transition = np.array(cfg.transition, dtype=float)
         self.weights = UnscentedWeights(6)
+        self._wm, self._wc, self._sigma_scale = compiled.weights_arrays(self.weights)
+        self._kinds: dict[tuple[str, ...], np.ndarray] = {}
+        self._restricted: dict[tuple[float, tuple[int, ...]], tuple[FloatArray, FloatArray, FloatArray]] = {}
         self._matrices: dict[float, tuple[FloatArray, FloatArray]] = {}
         self._gates = {
             m: float(chi2.ppf(cfg.gate_probability, m)) if cfg.gate_probability < 1 else np.inf for m in (1, 2, 3, 4)
@@ -193,6 +205,16 @@ class Tracker:
             self._matrices[key] = (np.stack(Fs), np.stack(Qs))
         return self._matrices[key]
 
+    def _restricted_matrices(self, dt: float, mask: BoolArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Transition matrix restricted to the active set ``(a, a)`` and the active models' F, Q ``(a, 6, 6)``."""
+        key = (round(dt, 12), tuple(np.flatnonzero(mask)))
+        if key not in self._restricted:
+            a = np.flatnonzero(mask)
+            F, Q = self._model_matrices(dt)
+            Pi = restrict_transition(self.transition, mask[None])[0][a][:, a]
+            self._restricted[key] = (np.ascontiguousarray(Pi), np.ascontiguousarray(F[a]), np.ascontiguousarray(Q[a]))
+        return self._restricted[key]
+
     # ------------------------------------------------------------------------------------------------ scan
     def step(self, detections: Sequence[Detections], time_s: float, scan_index: int) -> TrackSet:
         """Process one scan of detections (all pairs) and return the updated tracks."""
@@ -222,10 +244,13 @@ class Tracker:
         # Every track shares the scan's model set: mix and predict the active models only (inactive ones are
         # re-initialised from the combined estimate by the switch rule if they come back).
         a = np.flatnonzero(mask)
-        Pi = restrict_transition(self.transition, active[:1])[:, a][:, :, a]
-        cbar, x0, P0 = imm_mix(mu[:, a], np.broadcast_to(Pi, (len(t), a.size, a.size)), x[:, a], P[:, a])
-        F, Q = self._model_matrices(dt)
-        x[:, a], P[:, a] = kf_predict(x0, P0, F[a][None], Q[a][None])
+        Pi, F, Q = self._restricted_matrices(dt, mask)
+        if self.backend == "compiled":
+            c = np.ascontiguousarray
+            cbar, x[:, a], P[:, a] = compiled.predict_models(c(mu[:, a]), Pi, c(x[:, a]), c(P[:, a]), F, Q)
+        else:
+            cbar, x0, P0 = imm_mix(mu[:, a], np.broadcast_to(Pi, (len(t), a.size, a.size)), x[:, a], P[:, a])
+            x[:, a], P[:, a] = kf_predict(x0, P0, F[None], Q[None])
         t.x, t.P = x, P
         t.mu = np.zeros_like(mu)
         t.mu[:, a] = cbar / cbar.sum(axis=-1, keepdims=True)
@@ -248,6 +273,8 @@ class Tracker:
         X, PP, MU = t.x[:, a], t.P[:, a], t.mu[:, a]
         N, r = len(t), a.size
         tx, rx = self.tx_pos[det.tx], self.rx_pos[det.rx]
+        if self.backend == "compiled":
+            return self._update_compiled(det, a, tx, rx)
         ang = angular_mask(names)
         if cfg.filter == "ukf":
             z_hat, S0, C = ukf_moments(names, X, PP, tx, rx, self.weights, ang)
@@ -294,6 +321,40 @@ class Tracker:
         taken[cols] = owned > 0.5
         return taken
 
+    def _update_compiled(self, det: Detections, a: IntArray, tx: FloatArray, rx: FloatArray) -> BoolArray:
+        """``_update`` with the fused compiled kernel (``compiled.receiver_update``)."""
+        cfg, t = self.cfg, self.tracks
+        names = det.measurement_names
+        kinds = self._kinds.get(names)
+        if kinds is None:
+            kinds = self._kinds[names] = compiled.kind_codes(names)
+        c = np.ascontiguousarray  # one compiled layout
+        x, P, psi, mu, taken, ok = compiled.receiver_update(
+            c(t.x[:, a]),
+            c(t.P[:, a]),
+            c(t.mu[:, a]),
+            t.existence,
+            np.ascontiguousarray(self._pd(det, t), dtype=float),
+            np.ascontiguousarray(det.z, dtype=float),
+            np.ascontiguousarray(det.R, dtype=float),
+            np.maximum(det.clutter_intensity, cfg.min_clutter_intensity),
+            kinds,
+            tx,
+            rx,
+            self._wm,
+            self._wc,
+            self._sigma_scale,
+            cfg.filter == "ukf",
+            self._gates[len(names)],
+            cfg.gate_probability,
+            cfg.fixed_existence,
+        )
+        if not ok:
+            raise np.linalg.LinAlgError("tracker update: a covariance is not positive definite")
+        t.x[:, a], t.P[:, a], t.mu[:, a] = x, P, mu
+        t.existence = psi
+        return taken
+
     def _pd(self, det: Detections, t: TrackSet) -> FloatArray:
         """Detection probability of each track at this pair: the sensor model at the scan's predicted positions.
 
@@ -313,15 +374,32 @@ class Tracker:
     def _initiate(self, unused: list[tuple[Detections, BoolArray]], time_s: float, scan_index: int) -> None:
         cfg = self.cfg
         ps, covs, range_groups = [], [], []
+        fast = self.backend == "compiled"
         for det, free in unused:  # per pair: a small fixed set
             if not free.any():
+                continue
+            names = det.measurement_names
+            tx, rx = self.tx_pos[det.tx], self.rx_pos[det.rx]
+            if fast and "azimuth" in names:
+                p, cov = compiled.azimuth_candidates(
+                    np.ascontiguousarray(det.z, dtype=float),
+                    np.ascontiguousarray(det.R, dtype=float),
+                    np.ascontiguousarray(det.snr, dtype=float),
+                    free,
+                    names.index("azimuth"),
+                    names.index("range_rate") if "range_rate" in names else -1,
+                    tx,
+                    rx,
+                    2.0 * cfg.max_speed_mps,
+                    cfg.init_max_candidates,
+                )
+                ps.append(p)
+                covs.append(cov)
                 continue
             # strongest first, so that any cap below keeps the strongest detections (dense clutter)
             order = np.argsort(-det.snr[free], kind="stable")[: cfg.init_max_candidates]
             z, R = det.z[free][order], det.R[free][order]
-            names = det.measurement_names
             r, var_r = ridge_range(z, R, names, 2.0 * cfg.max_speed_mps)
-            tx, rx = self.tx_pos[det.tx], self.rx_pos[det.rx]
             if "azimuth" in names:
                 a = names.index("azimuth")
                 p, cov, ok = range_azimuth_candidates(r, var_r, z[:, a], R[:, a, a], tx, rx)
@@ -336,25 +414,33 @@ class Tracker:
             p, cov = range_only_candidates(range_groups, nu, self.area, self._starts)
             ps.append(p)
             covs.append(cov)
-        p = np.concatenate(ps) if ps else np.zeros((0, 2))
-        cov = np.concatenate(covs) if covs else np.zeros((0, 2, 2))
-        inside = (
-            (p[:, 0] >= self.area[0])
-            & (p[:, 0] <= self.area[1])
-            & (p[:, 1] >= self.area[2])
-            & (p[:, 1] <= self.area[3])
-        )
-        spread = np.trace(cov, axis1=1, axis2=2)
-        inside &= spread <= 2.0 * cfg.init_max_position_std_m**2
-        p, cov, spread = p[inside], cov[inside], spread[inside]
-        if p.shape[0] > cfg.init_max_candidates:  # keep the most precise
-            best = np.argsort(spread, kind="stable")[: cfg.init_max_candidates]
-            p, cov = p[best], cov[best]
-        p, cov = fuse_candidates(p, cov, self._gates[2])
+        if not ps:
+            p, cov = np.zeros((0, 2)), np.zeros((0, 2, 2))
+        else:
+            p, cov = (np.concatenate(ps), np.concatenate(covs)) if len(ps) > 1 else (ps[0], covs[0])
+        max_spread = 2.0 * cfg.init_max_position_std_m**2
+        if fast:
+            p, cov = compiled.select_candidates(p, cov, self.area, max_spread, cfg.init_max_candidates)
+            p, cov = compiled.fuse_candidates(p, cov, self._gates[2])
+        else:
+            inside = (
+                (p[:, 0] >= self.area[0])
+                & (p[:, 0] <= self.area[1])
+                & (p[:, 1] >= self.area[2])
+                & (p[:, 1] <= self.area[3])
+            )
+            spread = np.trace(cov, axis1=1, axis2=2)
+            inside &= spread <= max_spread
+            p, cov, spread = p[inside], cov[inside], spread[inside]
+            if p.shape[0] > cfg.init_max_candidates:  # keep the most precise
+                best = np.argsort(spread, kind="stable")[: cfg.init_max_candidates]
+                p, cov = p[best], cov[best]
+            p, cov = fuse_candidates(p, cov, self._gates[2])
+        pairs = compiled.two_point_pairs if fast else two_point_pairs
         prev = self._previous
         dt = time_s - prev.time_s
         i, j = (
-            two_point_pairs(p, cov, prev.p, prev.cov, dt, cfg.max_speed_mps)
+            pairs(p, cov, prev.p, prev.cov, dt, cfg.max_speed_mps)
             if np.isfinite(dt)
             else (np.zeros(0, np.int64), np.zeros(0, np.int64))
         )
@@ -374,22 +460,26 @@ class Tracker:
         Cov(p, v) = cov K^T / T (a valid joint covariance since Cov(v) <= Sigma).
         """
         n, cfg = p.shape[0], self.cfg
-        v_hat = (p - p0) / dt
-        sigma = (cov + cov0) / dt**2
-        sigma_inv = np.linalg.inv(sigma)
-        cov_v = np.linalg.inv(sigma_inv + np.eye(2) / (0.5 * cfg.max_speed_mps) ** 2)
-        K = cov_v @ sigma_inv
-        x = np.zeros((n, 6))
-        x[:, 0], x[:, 2] = p[:, 0], p[:, 1]
-        v = np.einsum("nij,nj->ni", K, v_hat)
-        x[:, 1], x[:, 3] = v[:, 0], v[:, 1]
-        cross = cov @ np.swapaxes(K, -1, -2) / dt
-        block = np.concatenate(  # (n, 4, 4) in the order (x, y, vx, vy), scattered once into the state order
-            [np.concatenate([cov, cross], axis=2), np.concatenate([np.swapaxes(cross, -1, -2), cov_v], axis=2)], axis=1
-        )
-        P = np.zeros((n, 6, 6))
-        P[:, _PV[:, None], _PV[None, :]] = block
-        P[:, 4, 4] = P[:, 5, 5] = cfg.initial_accel_std_mps2**2
+        if self.backend == "compiled":
+            x, P = compiled.new_track_states(p, cov, p0, cov0, dt, cfg.max_speed_mps, cfg.initial_accel_std_mps2)
+        else:
+            v_hat = (p - p0) / dt
+            sigma = (cov + cov0) / dt**2
+            sigma_inv = np.linalg.inv(sigma)
+            cov_v = np.linalg.inv(sigma_inv + np.eye(2) / (0.5 * cfg.max_speed_mps) ** 2)
+            K = cov_v @ sigma_inv
+            x = np.zeros((n, 6))
+            x[:, 0], x[:, 2] = p[:, 0], p[:, 1]
+            v = np.einsum("nij,nj->ni", K, v_hat)
+            x[:, 1], x[:, 3] = v[:, 0], v[:, 1]
+            cross = cov @ np.swapaxes(K, -1, -2) / dt
+            block = np.concatenate(  # (n, 4, 4) in the order (x, y, vx, vy), scattered once into the state order
+                [np.concatenate([cov, cross], axis=2), np.concatenate([np.swapaxes(cross, -1, -2), cov_v], axis=2)],
+                axis=1,
+            )
+            P = np.zeros((n, 6, 6))
+            P[:, _PV[:, None], _PV[None, :]] = block
+            P[:, 4, 4] = P[:, 5, 5] = cfg.initial_accel_std_mps2**2
         active = np.broadcast_to(self._active_mask(scan_index), (n, self.r)).copy()
         ids = np.arange(self._next_id, self._next_id + n)
         self._next_id += n
