@@ -1,6 +1,6 @@
 """Tracker throughput on urban-intersection (2 targets, VS-IMM of 4 UKF models, 2 receivers, clutter), one process.
 
-Run: python benchmarks/tracker_throughput.py [--episodes N]
+Run: python benchmarks/tracker_throughput.py [--episodes N] [--backend compiled|numpy]
 
 Detections are generated first (parametric sensing, round-robin waveforms, the tracker's sensor-model Pd
 precomputed per scan); then ``Tracker.step`` is timed alone: prediction (VS-IMM switch, mixing, Kalman
@@ -27,6 +27,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--episodes", type=int, default=10)
     ap.add_argument("--scenario", default="urban-intersection")
+    ap.add_argument("--backend", default="compiled", choices=("compiled", "numpy"))
     args = ap.parse_args()
     cfg = scenarios.get(args.scenario)
     sensor = ParametricSensor(cfg)
@@ -76,7 +77,7 @@ def main() -> None:
         stage.clear()
         total, n_scans, n_tracks = 0.0, 0, []
         for e, scans in enumerate(episodes):
-            tr = Tracker(cfg.tracker, lay.tx_pos, lay.rx_pos, lay.area, pd_model)
+            tr = Tracker(cfg.tracker, lay.tx_pos, lay.rx_pos, lay.area, pd_model, backend=args.backend)
             if rep == 1:
                 tr._predict = timed("predict (VS-IMM switch, mixing, Kalman)", tr._predict)
                 tr._update = timed("update (gating, LMIPDA, PDA, per receiver)", tr._update)

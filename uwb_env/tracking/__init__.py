@@ -1,6 +1,7 @@
 """Tracking: motion models, batched UKF/EKF kernels, (VS-)IMM, LMIPDA, initiation, the Tracker."""
 
 from uwb_env.scene.motion_models import ct_transition, nca_transition, ncv_transition, process_noise
+from uwb_env.tracking import compiled
 from uwb_env.tracking.imm import (
     SEED003_MODELS,
     SEED003_TRANSITION,
@@ -29,6 +30,7 @@ __all__ = [
     "TrackSet",
     "Tracker",
     "UnscentedWeights",
+    "compiled",
     "ct_transition",
     "ekf_moments",
     "gaussian_log_likelihood",

@@ -135,71 +135,77 @@ def _measure(X, k, kinds, tx, rx, Z, U, jac, want_jac):  # pragma: no cover - co
 
 # ---------------------------------------------------------------------------------------------------- IMM steps
 @_jit
-def predict_models(mu, Pi, x, P, F, Q):  # pragma: no cover - compiled
-    """IMM mixing then Kalman prediction of every model (imm.imm_mix + kernels.kf_predict).
+def predict_models(mu, Pi, x, P, F, Q, act):  # pragma: no cover - compiled
+    """IMM mixing then Kalman prediction of the models ``act`` (imm.imm_mix + kernels.kf_predict), in place.
 
-    Args: mu ``(N, a)``; Pi ``(a, a)`` (rows "from"); x ``(N, a, 6)``; P ``(N, a, 6, 6)``; F, Q ``(a, 6, 6)``.
-    Returns: cbar ``(N, a)``, predicted x ``(N, a, 6)`` and P ``(N, a, 6, 6)`` (symmetrised).
+    Args: mu ``(N, r)``; Pi ``(a, a)`` the transition matrix on the active set ``act`` ``(a,)`` (rows "from");
+    x ``(N, r, 6)``; P ``(N, r, 6, 6)``; F, Q ``(a, 6, 6)``. x, P and mu (normalised cbar) of the active models
+    are overwritten with the predicted ones.
     """
-    N, a = mu.shape
-    cbar = np.zeros((N, a))
-    xp = np.empty((N, a, _NS))
-    Pp = np.empty((N, a, _NS, _NS))
-    x0 = np.empty(_NS)
-    P0 = np.empty((_NS, _NS))
+    N, a = mu.shape[0], act.shape[0]
+    cbar = np.zeros(a)
+    x0 = np.empty((a, _NS))
+    P0 = np.empty((a, _NS, _NS))
     FP = np.empty((_NS, _NS))
     for n in range(N):
         for j in range(a):
             cb = 0.0
             for i in range(a):
-                cb += Pi[i, j] * mu[n, i]
-            cbar[n, j] = cb
+                cb += Pi[i, j] * mu[n, act[i]]
+            cbar[j] = cb
             if cb > 0.0:
-                x0[:] = 0.0
-                for i in range(a):
-                    w = Pi[i, j] * mu[n, i] / cb
-                    for s in range(_NS):
-                        x0[s] += w * x[n, i, s]
-                P0[:, :] = 0.0
-                for i in range(a):
-                    w = Pi[i, j] * mu[n, i] / cb
-                    for s in range(_NS):
-                        ds = x[n, i, s] - x0[s]
-                        for t in range(_NS):
-                            P0[s, t] += w * (P[n, i, s, t] + ds * (x[n, i, t] - x0[t]))
-            else:
                 for s in range(_NS):
-                    x0[s] = x[n, j, s]
+                    acc = 0.0
+                    for i in range(a):
+                        acc += Pi[i, j] * mu[n, act[i]] / cb * x[n, act[i], s]
+                    x0[j, s] = acc
+                for s in range(_NS):
                     for t in range(_NS):
-                        P0[s, t] = P[n, j, s, t]
+                        P0[j, s, t] = 0.0
+                for i in range(a):
+                    w = Pi[i, j] * mu[n, act[i]] / cb
+                    for s in range(_NS):
+                        ds = x[n, act[i], s] - x0[j, s]
+                        for t in range(_NS):
+                            P0[j, s, t] += w * (P[n, act[i], s, t] + ds * (x[n, act[i], t] - x0[j, t]))
+            else:  # a model nobody moves to keeps its own estimate
+                for s in range(_NS):
+                    x0[j, s] = x[n, act[j], s]
+                    for t in range(_NS):
+                        P0[j, s, t] = P[n, act[j], s, t]
+        total = 0.0
+        for j in range(a):
+            total += cbar[j]
+        for j in range(a):
+            k = act[j]
+            mu[n, k] = cbar[j] / total
             for s in range(_NS):
                 acc = 0.0
                 for t in range(_NS):
-                    acc += F[j, s, t] * x0[t]
-                xp[n, j, s] = acc
+                    acc += F[j, s, t] * x0[j, t]
+                x[n, k, s] = acc
             for s in range(_NS):
                 for t in range(_NS):
                     acc = 0.0
                     for u in range(_NS):
-                        acc += F[j, s, u] * P0[u, t]
+                        acc += F[j, s, u] * P0[j, u, t]
                     FP[s, t] = acc
-            for s in range(_NS):
+            for s in range(_NS):  # lower triangle; symmetric by construction
                 for t in range(s + 1):
                     acc = 0.0
                     for u in range(_NS):
                         acc += FP[s, u] * F[j, t, u]
-                    Pp[n, j, s, t] = acc
-            for s in range(_NS):  # lower triangle computed; symmetric by construction
-                for t in range(s + 1):
-                    v = Pp[n, j, s, t] + 0.5 * (Q[j, s, t] + Q[j, t, s])
-                    Pp[n, j, s, t] = v
-                    Pp[n, j, t, s] = v
-    return cbar, xp, Pp
+                    acc += 0.5 * (Q[j, s, t] + Q[j, t, s])
+                    P[n, k, s, t] = acc
+                    P[n, k, t, s] = acc
 
 
 @_jit
 def combine(w, x, P):  # pragma: no cover - compiled
-    """Moment-matched mixture over axis 1: w ``(N, J)``, x ``(N, J, 6)``, P ``(N, J, 6, 6)`` -> ``(N, 6)``, ``(N, 6, 6)``."""
+    """Moment-matched mixture over axis 1: w ``(N, J)``, x ``(N, J, 6)``, P ``(N, J, 6, 6)``.
+
+    Returns ``(N, 6)``, ``(N, 6, 6)`` (kernels.mixture_reduce).
+    """
     N, J = w.shape
     xb = np.zeros((N, _NS))
     Pb = np.zeros((N, _NS, _NS))
@@ -224,21 +230,22 @@ def combine(w, x, P):  # pragma: no cover - compiled
 # ------------------------------------------------------------------------------------------- receiver update
 @_jit
 def receiver_update(
-    x, P, mu, psi, pd, z, R, rho, kinds, tx, rx, wm, wc, sigma_scale, use_ukf, g2, pg, fixed_existence
+    x, P, mu, act, psi, pd, z, R, rho, kinds, tx, rx, wm, wc, sigma_scale, use_ukf, g2, pg, fixed_existence
 ):  # pragma: no cover - compiled
     """LMIPDA + PDA update of every track with one pair's detections (Tracker._update, numpy reference).
 
     Args:
-        x ``(N, a, 6)``, P ``(N, a, 6, 6)``, mu ``(N, a)``: the active models; psi, pd ``(N,)``;
+        x ``(N, r, 6)``, P ``(N, r, 6, 6)``, mu ``(N, r)``: updated in place for the models ``act`` ``(a,)``
+        (the active set); psi, pd ``(N,)``;
         z ``(M, m)``, R ``(M, m, m)``, rho ``(M,)`` clutter intensities (floored); kinds ``(m,)`` codes;
         tx, rx ``(2,)``; wm, wc ``(13,)`` unscented weights, sigma_scale = sqrt(n + lambda); use_ukf (else EKF);
         g2 chi-square gate; pg gate probability; fixed_existence (PDA).
 
     Returns:
-        x, P updated (new arrays), psi_post ``(N,)``, mu_post ``(N, a)``, taken ``(M,)`` (owned with p > 1/2),
+        psi_post ``(N,)``, taken ``(M,)`` (owned with p > 1/2) -- x, P, mu are updated in place --
         ok: False if some covariance was not positive definite (the caller raises).
     """
-    N, a = mu.shape
+    N, a = mu.shape[0], act.shape[0]
     M, m = z.shape
     n_sig = 2 * _NS + 1
     ok = True
@@ -260,9 +267,9 @@ def receiver_update(
     for n in range(N):
         for r in range(a):
             for s_ in range(_NS):
-                xl[0, s_] = x[n, r, s_]
+                xl[0, s_] = x[n, act[r], s_]
                 for t in range(_NS):
-                    Pl[s_, t] = P[n, r, s_, t]
+                    Pl[s_, t] = P[n, act[r], s_, t]
             if not _cholesky(Pl, L):
                 ok = False
                 continue
@@ -329,11 +336,13 @@ def receiver_update(
     # gating and gate-truncated likelihood ratios
     lam = np.zeros((N, a, M))
     gated = np.zeros((N, a, M), np.bool_)
+    n_gated = np.zeros((N, a), np.int64)
     nu = np.zeros((N, a, M, m))
     Sm = np.empty((m, m))
     Ls = np.zeros((m, m))
     y = np.empty(m)
     log_pg = math.log(pg)
+    log_rho = np.log(rho)
     for n in range(N):
         for r in range(a):
             for i in range(M):
@@ -354,25 +363,27 @@ def receiver_update(
                 if not _cholesky(Sm, Ls):
                     ok = False
                     continue
-                d2, logdet = 0.0, 0.0
+                d2, det_l = 0.0, 1.0
                 for c in range(m):
                     s = nu[n, r, i, c]
                     for e in range(c):
                         s -= Ls[c, e] * y[e]
                     y[c] = s / Ls[c, c]
                     d2 += y[c] * y[c]
-                    logdet += 2.0 * math.log(Ls[c, c])
+                    det_l *= Ls[c, c]
                 if d2 < g2:
+                    logdet = 2.0 * math.log(det_l)
                     gated[n, r, i] = True
+                    n_gated[n, r] += 1
                     loglik = -0.5 * (d2 + logdet + m * _LOG_2PI)
-                    lam[n, r, i] = math.exp(loglik - log_pg - math.log(rho[i]))
+                    lam[n, r, i] = math.exp(loglik - log_pg - log_rho[i])
 
     # LMIPDA (lmipda.lmipda)
     lam_t = np.zeros((N, M))
     for n in range(N):
         for r in range(a):
             for i in range(M):
-                lam_t[n, i] += mu[n, r] * lam[n, r, i]
+                lam_t[n, i] += mu[n, act[r]] * lam[n, r, i]
     odds = np.zeros((N, M))
     for n in range(N):
         total = 0.0
@@ -401,7 +412,7 @@ def receiver_update(
                     beta[n, r, i + 1] = lam[n, r, i] / omega
                     share += beta[n, r, i + 1]
             delta_r = pdpg * (1.0 - share)
-            delta += mu[n, r] * delta_r
+            delta += mu[n, act[r]] * delta_r
             denom = 1.0 - delta_r
             if denom > 0.0:
                 beta[n, r, 0] = (1.0 - pdpg) / denom
@@ -415,11 +426,9 @@ def receiver_update(
         one_minus = 1.0 - delta
         psi_post[n] = one_minus * psi[n] / (1.0 - delta * psi[n])
         for r in range(a):
-            mu_post[n, r] = mu[n, r] * mu_post[n, r] / one_minus if one_minus > 0.0 else mu[n, r]
+            mu_post[n, r] = mu[n, act[r]] * mu_post[n, r] / one_minus if one_minus > 0.0 else mu[n, act[r]]
 
     # PDA: Gaussian-mixture reduction of {no update, Joseph update with each gated measurement}
-    x_out = x.copy()
-    P_out = P.copy()
     xs = np.empty((M + 1, _NS))
     Ps = np.empty((M + 1, _NS, _NS))
     K = np.empty((_NS, m))
@@ -431,15 +440,19 @@ def receiver_update(
     used = np.zeros(M + 1, np.bool_)
     H = np.empty((m, _NS))
     Cl = np.empty((_NS, m))
+    xb = np.empty(_NS)
+    Pb = np.empty((_NS, _NS))
     for n in range(N):
         for r in range(a):
+            if n_gated[n, r] == 0:  # beta_0 = 1: the prediction stands
+                continue
             used[:] = False
             used[0] = True
             have_h = False
             for s_ in range(_NS):
-                xs[0, s_] = x[n, r, s_]
+                xs[0, s_] = x[n, act[r], s_]
                 for t in range(_NS):
-                    Ps[0, s_, t] = Pl[s_, t] = P[n, r, s_, t]
+                    Ps[0, s_, t] = Pl[s_, t] = P[n, act[r], s_, t]
             for i in range(M):
                 if not gated[n, r, i]:
                     continue
@@ -463,7 +476,7 @@ def receiver_update(
                         Ct[c, s] = C[n, r, s, c]
                 _chol_solve(Ls, Ct, Kt)  # K^T = S^-1 C^T
                 for s in range(_NS):
-                    acc = x[n, r, s]
+                    acc = xs[0, s]
                     for c in range(m):
                         K[s, c] = Kt[c, s]
                         acc += Kt[c, s] * nu[n, r, i, c]
@@ -478,7 +491,7 @@ def receiver_update(
                     for t in range(_NS):
                         acc = 0.0
                         for u in range(_NS):
-                            acc += A[s, u] * P[n, r, u, t]
+                            acc += A[s, u] * Ps[0, u, t]
                         AP[s, t] = acc
                 for s in range(_NS):
                     for c in range(m):
@@ -497,12 +510,12 @@ def receiver_update(
                 for s in range(_NS):  # lower triangle computed; symmetric by construction
                     for t in range(s):
                         Ps[i + 1, t, s] = Ps[i + 1, s, t]
-            xb = np.zeros(_NS)
+            xb[:] = 0.0
             for j in range(M + 1):
                 if used[j]:
                     for s in range(_NS):
                         xb[s] += beta[n, r, j] * xs[j, s]
-            Pb = np.zeros((_NS, _NS))
+            Pb[:, :] = 0.0
             for j in range(M + 1):
                 if used[j]:
                     w = beta[n, r, j]
@@ -511,10 +524,10 @@ def receiver_update(
                         for t in range(s + 1):
                             Pb[s, t] += w * (Ps[j, s, t] + ds * (xs[j, t] - xb[t]))
             for s in range(_NS):
-                x_out[n, r, s] = xb[s]
+                x[n, act[r], s] = xb[s]
                 for t in range(s + 1):
-                    P_out[n, r, s, t] = Pb[s, t]
-                    P_out[n, r, t, s] = Pb[s, t]
+                    P[n, act[r], s, t] = Pb[s, t]
+                    P[n, act[r], t, s] = Pb[s, t]
 
     # a measurement is taken when it belongs to some track with probability > 1/2
     taken = np.zeros(M, np.bool_)
@@ -524,7 +537,10 @@ def receiver_update(
             for r in range(a):
                 owned += psi_post[n] * mu_post[n, r] * beta[n, r, i + 1]
         taken[i] = owned > 0.5
-    return x_out, P_out, psi_post, mu_post, taken, ok
+    for n in range(N):
+        for r in range(a):
+            mu[n, act[r]] = mu_post[n, r]
+    return psi_post, taken, ok
 
 
 # ------------------------------------------------------------------------------------------------- initiation

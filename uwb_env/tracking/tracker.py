@@ -37,7 +37,7 @@ from uwb_env.config import TrackerConfig
 from uwb_env.scene.motion_models import model_transition, process_noise
 from uwb_env.sensing.records import Detections
 from uwb_env.tracking import compiled
-from uwb_env.tracking.imm import imm_combine, imm_mix, restrict_transition, switch_model_sets
+from uwb_env.tracking.imm import imm_mix, restrict_transition, switch_model_sets
 from uwb_env.tracking.initiation import (
     fuse_candidates,
     range_azimuth_candidates,
@@ -163,6 +163,8 @@ class Tracker:
         self.weights = UnscentedWeights(6)
         self._wm, self._wc, self._sigma_scale = compiled.weights_arrays(self.weights)
         self._kinds: dict[tuple[str, ...], np.ndarray] = {}
+        self._masks: dict[tuple[str, ...], BoolArray] = {}
+        self._indices: dict[bytes, IntArray] = {}
         self._restricted: dict[tuple[float, tuple[int, ...]], tuple[FloatArray, FloatArray, FloatArray]] = {}
         self._matrices: dict[float, tuple[FloatArray, FloatArray]] = {}
         self._gates = {
@@ -185,8 +187,20 @@ class Tracker:
         self._pd_cache: dict[tuple[int, int], FloatArray] = {}
 
     def _active_mask(self, scan_index: int) -> BoolArray:
+        """``(r,)`` the models active at this scan (cached per set; read-only)."""
         names = self.cfg.active_models(scan_index)
-        return np.array([n in names for n in self.model_names])
+        mask = self._masks.get(names)
+        if mask is None:
+            mask = self._masks[names] = np.array([n in names for n in self.model_names])
+            mask.flags.writeable = False
+        return mask
+
+    def _active_index(self, mask: BoolArray) -> IntArray:
+        """``(a,)`` int64 indices of the active models."""
+        key = mask.tobytes()
+        if key not in self._indices:
+            self._indices[key] = np.flatnonzero(mask).astype(np.int64)
+        return self._indices[key]
 
     def _model_matrices(self, dt: float) -> tuple[FloatArray, FloatArray]:
         """``(r, 6, 6)`` transition and process noise for period ``dt`` (cached per dt)."""
@@ -239,22 +253,20 @@ class Tracker:
     def _predict(self, dt: float, scan_index: int) -> None:
         t = self.tracks
         mask = self._active_mask(scan_index)
-        active = np.broadcast_to(mask, t.active.shape)
-        mu, x, P = switch_model_sets(t.active, active, t.mu, t.x, t.P)
+        if (t.active != mask).any():  # VS-IMM set change (rare): the switch rule of uwb_env.tracking.imm
+            active = np.broadcast_to(mask, t.active.shape)
+            t.mu, t.x, t.P = switch_model_sets(t.active, active, t.mu, t.x, t.P)
+            t.active = active.copy()
         # Every track shares the scan's model set: mix and predict the active models only (inactive ones are
         # re-initialised from the combined estimate by the switch rule if they come back).
-        a = np.flatnonzero(mask)
+        a = self._active_index(mask)
         Pi, F, Q = self._restricted_matrices(dt, mask)
         if self.backend == "compiled":
-            c = np.ascontiguousarray
-            cbar, x[:, a], P[:, a] = compiled.predict_models(c(mu[:, a]), Pi, c(x[:, a]), c(P[:, a]), F, Q)
+            compiled.predict_models(t.mu, Pi, t.x, t.P, F, Q, a)  # in place
         else:
-            cbar, x0, P0 = imm_mix(mu[:, a], np.broadcast_to(Pi, (len(t), a.size, a.size)), x[:, a], P[:, a])
-            x[:, a], P[:, a] = kf_predict(x0, P0, F[None], Q[None])
-        t.x, t.P = x, P
-        t.mu = np.zeros_like(mu)
-        t.mu[:, a] = cbar / cbar.sum(axis=-1, keepdims=True)
-        t.active = active.copy()
+            cbar, x0, P0 = imm_mix(t.mu[:, a], np.broadcast_to(Pi, (len(t), a.size, a.size)), t.x[:, a], t.P[:, a])
+            t.x[:, a], t.P[:, a] = kf_predict(x0, P0, F[None], Q[None])
+            t.mu[:, a] = cbar / cbar.sum(axis=-1, keepdims=True)
         t.existence = predict_existence(t.existence, self.cfg.survival_probability)
         t.age = t.age + 1
 
@@ -269,12 +281,12 @@ class Tracker:
         names = det.measurement_names
         m = len(names)
         # all tracks share the scan's model set (see _predict): work on the active models only
-        a = np.flatnonzero(t.active[0])
-        X, PP, MU = t.x[:, a], t.P[:, a], t.mu[:, a]
-        N, r = len(t), a.size
+        a = self._active_index(t.active[0])
         tx, rx = self.tx_pos[det.tx], self.rx_pos[det.rx]
         if self.backend == "compiled":
             return self._update_compiled(det, a, tx, rx)
+        X, PP, MU = t.x[:, a], t.P[:, a], t.mu[:, a]
+        N, r = len(t), a.size
         ang = angular_mask(names)
         if cfg.filter == "ukf":
             z_hat, S0, C = ukf_moments(names, X, PP, tx, rx, self.weights, ang)
@@ -328,11 +340,11 @@ class Tracker:
         kinds = self._kinds.get(names)
         if kinds is None:
             kinds = self._kinds[names] = compiled.kind_codes(names)
-        c = np.ascontiguousarray  # one compiled layout
-        x, P, psi, mu, taken, ok = compiled.receiver_update(
-            c(t.x[:, a]),
-            c(t.P[:, a]),
-            c(t.mu[:, a]),
+        psi, taken, ok = compiled.receiver_update(  # x, P, mu updated in place
+            t.x,
+            t.P,
+            t.mu,
+            a,
             t.existence,
             np.ascontiguousarray(self._pd(det, t), dtype=float),
             np.ascontiguousarray(det.z, dtype=float),
@@ -351,7 +363,6 @@ class Tracker:
         )
         if not ok:
             raise np.linalg.LinAlgError("tracker update: a covariance is not positive definite")
-        t.x[:, a], t.P[:, a], t.mu[:, a] = x, P, mu
         t.existence = psi
         return taken
 

@@ -1,0 +1,140 @@
+"""The compiled (numba) tracker kernels against the numpy reference kernels, to rounding error."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from uwb_env import scenarios
+from uwb_env.config import apply_overrides
+from uwb_env.rng import RngStreams
+from uwb_env.scene import sample_truth
+from uwb_env.sensing import ParametricSensor, ScanPlan
+from uwb_env.tracking import Tracker, UnscentedWeights, compiled, imm_combine, imm_mix, kf_predict
+from uwb_env.tracking.initiation import fuse_candidates, range_azimuth_candidates, ridge_range, two_point_pairs
+
+
+def _spd(rng, *shape, n=6, scale=1.0):
+    A = rng.normal(size=(*shape, n, n))
+    return scale * (A @ np.swapaxes(A, -1, -2) + n * np.eye(n))
+
+
+def test_predict_models_equals_imm_mix_then_kalman_prediction():
+    rng = np.random.default_rng(0)
+    N, r = 5, 4
+    act = np.array([0, 2, 3])
+    mu = rng.dirichlet(np.ones(r), size=N)
+    mu[:, 1] = 0.0
+    mu /= mu.sum(1, keepdims=True)
+    x, P = rng.normal(size=(N, r, 6)), _spd(rng, N, r)
+    Pi = rng.dirichlet(np.ones(3), size=3)
+    F, Q = np.eye(6) + 0.1 * rng.normal(size=(3, 6, 6)), _spd(rng, 3, scale=0.01)
+    cbar, x0, P0 = imm_mix(mu[:, act], np.broadcast_to(Pi, (N, 3, 3)), x[:, act], P[:, act])
+    xr, Pr = kf_predict(x0, P0, F[None], Q[None])
+    mu2, x2, P2 = mu.copy(), x.copy(), P.copy()
+    compiled.predict_models(mu2, Pi, x2, P2, F, Q, act)
+    np.testing.assert_allclose(x2[:, act], xr, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(P2[:, act], Pr, rtol=1e-11, atol=1e-11)
+    np.testing.assert_allclose(mu2[:, act], cbar / cbar.sum(1, keepdims=True), rtol=1e-14)
+    np.testing.assert_array_equal(x2[:, 1], x[:, 1])  # inactive model untouched
+
+
+def test_combine_equals_moment_matching():
+    rng = np.random.default_rng(1)
+    w = rng.dirichlet(np.ones(3), size=4)
+    x, P = rng.normal(size=(4, 3, 6)), _spd(rng, 4, 3)
+    xr, Pr = imm_combine(w, x, P)
+    xc, Pc = compiled.combine(w, x, P)
+    np.testing.assert_allclose(xc, xr, rtol=1e-13, atol=1e-13)
+    np.testing.assert_allclose(Pc, Pr, rtol=1e-12, atol=1e-12)
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(0, 12), n_prev=st.integers(0, 12))
+def test_initiation_kernels_equal_the_reference(seed, n, n_prev):
+    rng = np.random.default_rng(seed)
+    p = rng.uniform(0, 30, size=(n, 2))
+    cov = _spd(rng, n, n=2, scale=rng.uniform(0.01, 2.0))
+    pf, cf = fuse_candidates(p, cov, 9.21)
+    pc, cc = compiled.fuse_candidates(p, cov, 9.21)
+    np.testing.assert_allclose(pc, pf, rtol=1e-10, atol=1e-10)
+    np.testing.assert_allclose(cc, cf, rtol=1e-10, atol=1e-10)
+    p0 = rng.uniform(0, 30, size=(n_prev, 2))
+    cov0 = _spd(rng, n_prev, n=2, scale=0.5)
+    for a, b in zip(
+        two_point_pairs(p, cov, p0, cov0, 0.5, 20.0),
+        compiled.two_point_pairs(p, cov, p0, cov0, 0.5, 20.0),
+        strict=True,
+    ):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_azimuth_candidates_equal_ridge_range_then_bearing_ellipse_point():
+    rng = np.random.default_rng(3)
+    M = 40
+    tx, rx = np.array([0.0, 0.0]), np.array([30.0, 5.0])
+    names = ("bistatic_range", "range_rate", "azimuth")
+    z = np.column_stack([rng.uniform(10, 400, M), rng.normal(0, 10, M), rng.uniform(-np.pi, np.pi, M)])
+    L = rng.normal(size=(M, 3, 3)) * [1.0, 30.0, 0.01]
+    R = L @ np.swapaxes(L, -1, -2) + np.diag([0.01, 1.0, 1e-5])
+    snr = rng.exponential(20.0, M)
+    free = rng.random(M) < 0.7
+    cap = 20
+    order = np.argsort(-snr[free], kind="stable")[:cap]
+    zz, RR = z[free][order], R[free][order]
+    r, var = ridge_range(zz, RR, names, 40.0)
+    p, cov, ok = range_azimuth_candidates(r, var, zz[:, 2], RR[:, 2, 2], tx, rx)
+    pc, cc = compiled.azimuth_candidates(z, R, snr, free, 2, 1, tx, rx, 40.0, cap)
+    assert ok.sum() > 5
+    np.testing.assert_allclose(pc, p[ok], rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(cc, cov[ok], rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("scenario", "overrides"),
+    [
+        ("urban-intersection", {}),
+        ("urban-intersection", {"tracker.filter": "ekf"}),
+        ("urban-crossing", {"tracker.fixed_existence": True}),
+        ("indoor-rsn", {}),
+    ],
+)
+def test_tracker_back_ends_give_the_same_tracks(scenario, overrides):
+    """Whole tracker, both back ends on the same detections: same ids every scan, estimates to rounding."""
+    cfg = apply_overrides(scenarios.get(scenario), overrides) if overrides else scenarios.get(scenario)
+    sensor = ParametricSensor(cfg)
+    lay = sensor.layout
+    plans = [ScanPlan.all_listening(w, sensor.n_tx, sensor.n_rx) for w in range(len(sensor.library))]
+    rngs = RngStreams.from_seed(11)
+    ep = sensor.new_episode(sample_truth(cfg, rngs.truth, lay), rngs)
+    trackers = [Tracker(cfg.tracker, lay.tx_pos, lay.rx_pos, lay.area, backend=b) for b in ("numpy", "compiled")]
+    n_scans = min(cfg.n_scans, 60)
+    seen = 0
+    for k in range(1, n_scans + 1):
+        t_s = k * cfg.sensing.scan_period_s
+        dets = sensor.sense(ep, k, plans[k % len(plans)], t_s)
+        ref, fast = (tr.step(dets, t_s, k) for tr in trackers)
+        np.testing.assert_array_equal(fast.ids, ref.ids)
+        np.testing.assert_array_equal(fast.confirmed, ref.confirmed)
+        np.testing.assert_allclose(fast.existence, ref.existence, rtol=1e-8, atol=1e-12)
+        np.testing.assert_allclose(fast.mu, ref.mu, rtol=1e-8, atol=1e-10)
+        np.testing.assert_allclose(fast.x, ref.x, rtol=1e-9, atol=1e-7)
+        np.testing.assert_allclose(fast.P, ref.P, rtol=1e-7, atol=1e-9)
+        seen += len(ref)
+    assert seen > n_scans  # tracks existed for most of the run
+
+
+def test_unknown_backend_is_rejected():
+    cfg = scenarios.get("urban-intersection")
+    with pytest.raises(ValueError, match="backend='fortran'"):
+        Tracker(cfg.tracker, np.zeros((1, 2)), np.zeros((1, 2)), np.array([0, 1, 0, 1.0]), backend="fortran")
+
+
+def test_weights_arrays_match_the_unscented_weights():
+    w = UnscentedWeights(6)
+    wm, wc, scale = compiled.weights_arrays(w)
+    np.testing.assert_array_equal(wm, w.mean)
+    np.testing.assert_array_equal(wc, w.cov)
+    assert scale == pytest.approx(np.sqrt(6.0))
