@@ -1,3 +1,5 @@
-"""Schedulers (round-robin, fixed, random, lookahead, RL) arrive with the close-the-loop issue."""
+"""Schedulers: a small protocol and the open-loop and lookahead agents (SPEC.md agents/)."""
 
-__all__: list[str] = []
+from agents.schedulers import Fixed, Myopic, Random, RoundRobin, Scheduler
+
+__all__ = ["Fixed", "Myopic", "Random", "RoundRobin", "Scheduler"]

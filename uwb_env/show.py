@@ -8,13 +8,14 @@ from __future__ import annotations
 import argparse
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from uwb_env import scenarios
 from uwb_env.config import ChirpWaveformConfig, ScenarioConfig
 from uwb_env.rng import RngStreams
-from uwb_env.scene import Truth, sample_truth
+from uwb_env.scene import SceneLayout, Truth, sample_truth
 from uwb_env.sensing import ParametricSensor, ScanPlan
 from uwb_env.units import linear_to_db
 
@@ -66,15 +67,10 @@ def summary(cfg: ScenarioConfig, truth: Truth, sensor: ParametricSensor, seed: i
     return "\n".join(lines)
 
 
-def draw(cfg: ScenarioConfig, truth: Truth, sensor: ParametricSensor, path: Path) -> None:
-    """Scene picture: walls / buildings, clutter points, nodes, truth trajectories with start and end marks."""
-    import matplotlib
-
-    matplotlib.use("Agg")
+def draw_scene(ax: Any, cfg: ScenarioConfig, lay: SceneLayout) -> None:
+    """Static scene on a matplotlib axis: surveillance area, walls / buildings, clutter points, nodes."""
     import matplotlib.pyplot as plt
 
-    lay = sensor.layout
-    fig, ax = plt.subplots(figsize=(7, 7 * (lay.area[3] - lay.area[2]) / (lay.area[1] - lay.area[0]) + 0.5))
     a = cfg.surveillance_area
     ax.add_patch(
         plt.Rectangle(
@@ -98,6 +94,23 @@ def draw(cfg: ScenarioConfig, truth: Truth, sensor: ParametricSensor, path: Path
         ax.plot(*lay.clutter_points.T, "+", color="tab:green", ms=6, label="clutter (vegetation)")
     ax.plot(*lay.tx_pos.T, "v", color="tab:red", ms=10, label="transmitter")
     ax.plot(*lay.rx_pos.T, "o", mfc="none", mec="tab:blue", ms=10, mew=2, label="receiver")
+    ax.set_xlim(lay.area[0] - 0.05 * (lay.area[1] - lay.area[0]), lay.area[1] + 0.05 * (lay.area[1] - lay.area[0]))
+    ax.set_ylim(lay.area[2] - 0.05 * (lay.area[3] - lay.area[2]), lay.area[3] + 0.05 * (lay.area[3] - lay.area[2]))
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+
+
+def draw(cfg: ScenarioConfig, truth: Truth, sensor: ParametricSensor, path: Path) -> None:
+    """Scene picture: walls / buildings, clutter points, nodes, truth trajectories with start and end marks."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    lay = sensor.layout
+    fig, ax = plt.subplots(figsize=(7, 7 * (lay.area[3] - lay.area[2]) / (lay.area[1] - lay.area[0]) + 0.5))
+    draw_scene(ax, cfg, lay)
     for j, t in enumerate(cfg.targets):
         alive = truth.alive[:, j]
         xy = truth.states[alive, j][:, [0, 2]]
@@ -105,11 +118,6 @@ def draw(cfg: ScenarioConfig, truth: Truth, sensor: ParametricSensor, path: Path
         ax.plot(*xy.T, style, lw=2.5 - 0.5 * (j % 3), label=f"{t.name} (from {t.birth_time_s:g} s)")
         ax.plot(*xy[0], "s", color="k", ms=6, mfc="none")
         ax.plot(*xy[-1], "s", color="k", ms=6)
-    ax.set_xlim(lay.area[0] - 0.05 * (lay.area[1] - lay.area[0]), lay.area[1] + 0.05 * (lay.area[1] - lay.area[0]))
-    ax.set_ylim(lay.area[2] - 0.05 * (lay.area[3] - lay.area[2]), lay.area[3] + 0.05 * (lay.area[3] - lay.area[2]))
-    ax.set_aspect("equal")
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
     ax.set_title(f"{cfg.name} (seed {cfg.seed_reference.split()[0]}); squares: start (open), end (filled)")
     ax.legend(loc="best", fontsize=8)
     fig.tight_layout()

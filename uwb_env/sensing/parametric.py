@@ -713,6 +713,32 @@ class ParametricSensor:
         snr = np.where(ok, self.radar_constant[waveform, tx, rx] * rcs_m2 * unit_snr[0, 0], 0.0)
         return np.where(ok, detection_probability(snr, self.cfg.sensing.false_alarm_probability, swerling), 0.0)
 
+    def expected_measurement(
+        self, tx: int, rx: int, positions: FloatArray, waveform: int, rcs_m2: float = 1.0, swerling: int = 1
+    ) -> tuple[FloatArray, FloatArray]:
+        """Sensor model of one pair for the lookahead: ``(Pd (N,), R (N, m, m))`` at ``positions`` (N, 2) [m].
+
+        R is the waveform's covariance at the mean SNR (assumed RCS) with the azimuth variance of the array
+        receiver appended (columns ``measurement_names(rx)``); uncovered positions get Pd = 0 and R at unit SNR.
+        """
+        pos = np.asarray(positions, dtype=float).reshape(-1, 2)
+        *_, az, covered, unit_snr = self._links(slice(tx, tx + 1), slice(rx, rx + 1), pos)
+        ok = covered[0, 0]
+        snr = np.where(ok, self.radar_constant[waveform, tx, rx] * rcs_m2 * unit_snr[0, 0], 0.0)
+        pd = np.where(ok, detection_probability(snr, self.cfg.sensing.false_alarm_probability, swerling), 0.0)
+        safe = np.where(ok & (snr > 1.0), snr, 1.0)
+        R = self.library[waveform].covariance(safe)
+        if self._doa_rx[rx]:
+            lay = self.layout
+            off = _wrap(az[0] - self._boresight[rx])
+            var = azimuth_variance(safe, lay.rx_n_elements[rx], lay.rx_spacing_m[rx], self._wavelengths[waveform], off)
+            R = _append_block(R, var)
+        return pd, R
+
+    def measurement_names(self, rx: int) -> tuple[str, ...]:
+        """Measurement components of receiver ``rx``'s detections."""
+        return self._names[rx]
+
     def range_density(self, tx: int, rx: int) -> tuple[FloatArray, FloatArray]:
         """The pair's clutter density in bistatic range: bin edges ``(n + 1,)`` [m], density ``(n,)`` [1/m]."""
         p = int(self._pair_of_key[tx * self.n_rx + rx])

@@ -270,6 +270,21 @@ class Tracker:
         t.existence = predict_existence(t.existence, self.cfg.survival_probability)
         t.age = t.age + 1
 
+    def predicted(self, time_s: float, scan_index: int) -> TrackSet:
+        """The tracks predicted to ``time_s`` (IMM mixing and prediction, existence), without changing the tracker.
+
+        Pure: works on copies and draws nothing (the lookahead's input).
+        """
+        t = self.tracks
+        saved = self.tracks
+        self.tracks = TrackSet(*(getattr(t, f).copy() for f in _FIELDS))
+        try:
+            if self._time is not None and len(self.tracks):
+                self._predict(time_s - self._time, scan_index)
+            return self.tracks
+        finally:
+            self.tracks = saved
+
     def _update(self, det: Detections) -> BoolArray:
         """LMIPDA + PDA update of every track with one pair's detections.
 

@@ -1,0 +1,22 @@
+"""Gymnasium environments of uwb_env (registered on ``import uwb_env``)."""
+
+from uwb_env.envs.scheduling import ACTION_KINDS, UWBSchedulingEnv, enumerate_plans
+
+ENV_IDS = {
+    "uwb_env/UrbanWaveform-v0": {"scenario": "urban-intersection", "action_kind": "waveform"},
+    "uwb_env/IndoorSensorSubset-v0": {"scenario": "indoor-rsn", "action_kind": "subset", "subset_size": 3},
+    "uwb_env/IndoorJoint-v0": {"scenario": "indoor-rsn", "action_kind": "joint", "subset_size": 3},
+}
+"""Registered ids and their default keyword arguments (``gymnasium.make(id, **kwargs)`` overrides them)."""
+
+
+def register_envs() -> None:
+    """Register every id of :data:`ENV_IDS` with gymnasium (idempotent)."""
+    import gymnasium as gym
+
+    for env_id, kwargs in ENV_IDS.items():
+        if env_id not in gym.registry:
+            gym.register(id=env_id, entry_point="uwb_env.envs.scheduling:UWBSchedulingEnv", kwargs=dict(kwargs))
+
+
+__all__ = ["ACTION_KINDS", "ENV_IDS", "UWBSchedulingEnv", "enumerate_plans", "register_envs"]

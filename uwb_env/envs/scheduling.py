@@ -1,0 +1,297 @@
+r"""``UWBSchedulingEnv``: a scheduler picks the next scan's plan; the reward is minus the tracks' uncertainty.
+
+One ``step(action)`` is SPEC.md's "One step": action -> ``ScanPlan`` -> sensing -> tracking -> reward and
+observation. The action indexes an enumerated list of plans (``self.plans``):
+
+    action_kind="waveform"  every transmitter sends waveform w, every receiver listens (seed 003)
+    action_kind="subset"    the k receivers of subset s listen, the fixed waveform is sent (seed 000's network)
+    action_kind="joint"     waveform x subset
+
+Reward (SPEC.md step 6): minus the mean over confirmed tracks of trace(P) of the position block [m^2], minus
+``missed_target_penalty_m2`` for every alive true target that no confirmed track covers within ``cover_gate_m``
+(otherwise a scheduler that loses every track would pay nothing), minus ``energy_cost_per_j`` times the scan's
+transmitted energy. The components are in ``info``.
+
+Observation (flat ``Box``, default): ``n_slots`` track slots, confirmed tracks first then by existence, each
+    [present, existence, confirmed, (x - cx) / hx, (y - cy) / hy, vx / v_max, vy / v_max,
+     log10(var_x) / 4, log10(var_y) / 4, corr_xy, mu_1 .. mu_r]
+(cx, cy the area's centre, hx, hy its half-sizes), then the previous action one-hot, then optionally
+log10(1 + lookahead cost) / 4 per action. ``observation="dict"`` gives the same parts as a ``Dict``.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from uwb_env import scenarios
+from uwb_env.config import ScenarioConfig, apply_overrides
+from uwb_env.lookahead import lookahead_costs
+from uwb_env.metrics import assign, ospa
+from uwb_env.sensing.records import ScanPlan
+from uwb_env.sim import ScanResult, Simulator
+from uwb_env.typing import FloatArray
+
+ACTION_KINDS = ("waveform", "subset", "joint")
+FIDELITIES = ("parametric",)
+OBS_BOUND = 10.0
+"""Observation bounds: every feature is O(1) on the scenario (tracks live inside the area, deleted beyond 50 m std);
+a value outside raises rather than being clipped."""
+
+
+def enumerate_plans(
+    kind: str, n_waveforms: int, n_tx: int, n_rx: int, subset_size: int, fixed_waveform: int
+) -> list[ScanPlan]:
+    """The plans an action indexes (module docstring), in a fixed order."""
+    if kind not in ACTION_KINDS:
+        raise ValueError(f"action_kind={kind!r}: must be one of {ACTION_KINDS}")
+    if kind != "waveform" and not 1 <= subset_size <= n_rx:
+        raise ValueError(f"subset_size={subset_size}: must be in [1, {n_rx}] (the receivers of the scenario)")
+    if not 0 <= fixed_waveform < n_waveforms:
+        raise ValueError(f"fixed_waveform={fixed_waveform}: must be in [0, {n_waveforms - 1}]")
+    subsets = [np.isin(np.arange(n_rx), c) for c in itertools.combinations(range(n_rx), subset_size)]
+    if kind == "waveform":
+        return [ScanPlan.all_listening(w, n_tx, n_rx) for w in range(n_waveforms)]
+    waveforms = [fixed_waveform] if kind == "subset" else list(range(n_waveforms))
+    return [ScanPlan(np.full(n_tx, w, dtype=np.int64), s) for w in waveforms for s in subsets]
+
+
+class UWBSchedulingEnv(gym.Env):
+    """Closed-loop sensor scheduling on one scenario (see the module docstring).
+
+    Args:
+        scenario: a registered scenario name or a ``ScenarioConfig``; overrides: dotted config overrides.
+        action_kind, subset_size, fixed_waveform: the plans (``enumerate_plans``).
+        fidelity: ``"parametric"`` (the signal path is a later issue).
+        n_slots: track slots in the observation; observation: ``"box"`` or ``"dict"``;
+        include_lookahead: append the lookahead cost of every action to the observation.
+        missed_target_penalty_m2, cover_gate_m, energy_cost_per_j: reward terms (module docstring).
+        render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array", "human"], "render_fps": 4}
+
+    def __init__(
+        self,
+        scenario: str | ScenarioConfig = "urban-intersection",
+        action_kind: str = "waveform",
+        subset_size: int = 3,
+        fixed_waveform: int = 0,
+        fidelity: str = "parametric",
+        n_slots: int = 8,
+        observation: str = "box",
+        include_lookahead: bool = False,
+        missed_target_penalty_m2: float = 100.0,
+        cover_gate_m: float = 5.0,
+        energy_cost_per_j: float = 0.0,
+        render_mode: str | None = None,
+        **overrides: Any,
+    ) -> None:
+        if fidelity not in FIDELITIES:
+            raise ValueError(f"fidelity={fidelity!r}: must be one of {FIDELITIES}")
+        if observation not in ("box", "dict"):
+            raise ValueError(f"observation={observation!r}: must be 'box' or 'dict'")
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise ValueError(f"render_mode={render_mode!r}: must be None or one of {self.metadata['render_modes']}")
+        if n_slots < 1:
+            raise ValueError(f"n_slots={n_slots}: must be >= 1")
+        for name, value in (
+            ("missed_target_penalty_m2", missed_target_penalty_m2),
+            ("cover_gate_m", cover_gate_m),
+            ("energy_cost_per_j", energy_cost_per_j),
+        ):
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name}={value}: must be finite and >= 0")
+        cfg = scenarios.get(scenario) if isinstance(scenario, str) else scenario
+        self.cfg = apply_overrides(cfg, overrides) if overrides else cfg
+        self.sim = Simulator(self.cfg)
+        sensor = self.sim.sensor
+        self.plans = enumerate_plans(
+            action_kind, len(sensor.library), sensor.n_tx, sensor.n_rx, subset_size, fixed_waveform
+        )
+        self.action_kind = action_kind
+        self.n_slots, self.obs_kind, self.include_lookahead = n_slots, observation, include_lookahead
+        self.missed_target_penalty_m2 = missed_target_penalty_m2
+        self.cover_gate_m = cover_gate_m
+        self.energy_cost_per_j = energy_cost_per_j
+        self.render_mode = render_mode
+        self.action_space = spaces.Discrete(len(self.plans))
+        self.n_models = self.sim.tracker.r
+        self.slot_features = 10 + self.n_models
+        lay = sensor.layout
+        x0, x1, y0, y1 = lay.area
+        self._centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2])
+        self._half = np.array([(x1 - x0) / 2, (y1 - y0) / 2])
+        self._v_max = self.cfg.tracker.max_speed_mps
+        self._energy = np.array(
+            [
+                sum(
+                    sensor.library[int(w)].scan_energy_j(10 ** (tx.power_dbm / 10) * 1e-3)
+                    for w, tx in zip(p.waveform, self.cfg.transmitters, strict=True)
+                )
+                for p in self.plans
+            ]
+        )
+        parts = {
+            "tracks": spaces.Box(-OBS_BOUND, OBS_BOUND, (n_slots, self.slot_features), np.float32),
+            "previous_action": spaces.Box(0.0, 1.0, (len(self.plans),), np.float32),
+        }
+        if include_lookahead:
+            parts["lookahead"] = spaces.Box(0.0, OBS_BOUND, (len(self.plans),), np.float32)
+        self._parts = parts
+        if observation == "dict":
+            self.observation_space = spaces.Dict(parts)
+        else:
+            size = sum(int(np.prod(s.shape)) for s in parts.values())
+            self.observation_space = spaces.Box(-OBS_BOUND, OBS_BOUND, (size,), np.float32)
+        self._previous: int | None = None
+        self._last: ScanResult | None = None
+
+    # ------------------------------------------------------------------------------------------------- gym API
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
+        """Draw an episode; ``seed`` seeds every stream of it (SPEC.md randomness contract)."""
+        super().reset(seed=seed)
+        if seed is None:  # draw the episode seed from the env's own generator (seeded by an earlier reset)
+            seed = int(self.np_random.integers(2**63 - 1))
+        self.sim.reset(seed)
+        self._previous = None
+        self._last = None
+        return self._observation(), {"scan_index": 0}
+
+    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        """Sense and track the next scan with plan ``action``."""
+        a = self._check_action(action)
+        if self.sim.done:
+            raise RuntimeError("step() after the episode ended: call reset()")
+        res = self.sim.step(self.plans[a])
+        self._previous, self._last = a, res
+        reward, info = self._reward_and_info(res, a)
+        return self._observation(), reward, self.sim.done, False, info
+
+    def action_masks(self) -> np.ndarray:
+        """``(n_actions,)`` which actions are valid now (all enumerated plans are)."""
+        return np.ones(len(self.plans), dtype=bool)
+
+    def lookahead_costs(self) -> FloatArray:
+        """Expected mean position-covariance trace [m^2] after the next scan for every action (pure)."""
+        k = self.sim.k + 1
+        return lookahead_costs(self.sim.sensor, self.sim.tracker, self.plans, k * self.cfg.sensing.scan_period_s, k)
+
+    # ----------------------------------------------------------------------------------------------- internals
+    def _check_action(self, action: Any) -> int:
+        a = np.asarray(action)
+        if a.shape != () or a.dtype.kind not in "iu" or not 0 <= int(a) < len(self.plans):
+            raise ValueError(f"action={action!r}: must be an integer in [0, {len(self.plans) - 1}]")
+        return int(a)
+
+    def _reward_and_info(self, res: ScanResult, action: int) -> tuple[float, dict[str, Any]]:
+        t = res.tracks
+        x, P = t.combined()
+        conf = t.confirmed
+        trace = P[conf, 0, 0] + P[conf, 2, 2]
+        mean_trace = float(trace.mean()) if trace.size else 0.0
+        truth = self.sim.truth
+        alive = truth.alive[res.scan_index]
+        targets = truth.states[res.scan_index][alive][:, [0, 2]]
+        tracks_pos = x[conf][:, [0, 2]]
+        ti, gi = assign(tracks_pos, targets, self.cover_gate_m)
+        missed = int(alive.sum()) - int(gi.size)
+        energy = float(self._energy[action])
+        reward = -mean_trace - self.missed_target_penalty_m2 * missed - self.energy_cost_per_j * energy
+        if not math.isfinite(reward):
+            raise FloatingPointError(f"reward is {reward} at scan {res.scan_index}: mean trace {mean_trace}")
+        errors = np.linalg.norm(tracks_pos[ti] - targets[gi], axis=1)
+        info = {
+            "scan_index": res.scan_index,
+            "covariance_trace": mean_trace,
+            "missed_targets": missed,
+            "missed_penalty": self.missed_target_penalty_m2 * missed,
+            "energy_j": energy,
+            "energy_cost": self.energy_cost_per_j * energy,
+            "position_errors_m": errors,
+            "ospa_m": ospa(tracks_pos, targets, cutoff_m=self.cover_gate_m * 2),
+            "confirmed_tracks": int(conf.sum()),
+            "false_tracks": int(conf.sum()) - int(ti.size),
+            "model_probabilities": (t.mu[conf].mean(axis=0) if conf.any() else np.zeros(self.n_models)),
+        }
+        return float(reward), info
+
+    def _observation(self) -> Any:
+        tracks = self.sim.tracker.tracks
+        feats = np.zeros((self.n_slots, self.slot_features))
+        if len(tracks):
+            order = np.lexsort((-tracks.existence, ~tracks.confirmed))[: self.n_slots]
+            t = tracks.select(np.isin(np.arange(len(tracks)), order))
+            order = np.lexsort((-t.existence, ~t.confirmed))
+            x, P = t.combined()
+            x, P = x[order], P[order]
+            n = x.shape[0]
+            vx, vy = P[:, 0, 0], P[:, 2, 2]
+            f = feats[:n]
+            f[:, 0] = 1.0
+            f[:, 1] = t.existence[order]
+            f[:, 2] = t.confirmed[order]
+            f[:, 3:5] = (x[:, [0, 2]] - self._centre) / self._half
+            f[:, 5:7] = x[:, [1, 3]] / self._v_max
+            f[:, 7] = np.log10(vx) / 4.0
+            f[:, 8] = np.log10(vy) / 4.0
+            f[:, 9] = P[:, 0, 2] / np.sqrt(vx * vy)
+            f[:, 10:] = t.mu[order]
+        prev = np.zeros(len(self.plans))
+        if self._previous is not None:
+            prev[self._previous] = 1.0
+        parts = {"tracks": feats, "previous_action": prev}
+        if self.include_lookahead:
+            parts["lookahead"] = np.log10(1.0 + self.lookahead_costs()) / 4.0
+        for name, v in parts.items():
+            if not np.all(np.abs(v) <= OBS_BOUND):  # also catches NaN
+                raise FloatingPointError(
+                    f"observation part {name!r} outside [-{OBS_BOUND}, {OBS_BOUND}] or not finite at scan {self.sim.k}"
+                )
+        if self.obs_kind == "dict":
+            return {k: v.astype(np.float32) for k, v in parts.items()}
+        return np.concatenate([v.ravel() for v in parts.values()]).astype(np.float32)
+
+    # ---------------------------------------------------------------------------------------------- rendering
+    def render(self) -> np.ndarray | None:
+        """The scene, truth, confirmed tracks with 2-sigma ellipses and ids, and the chosen plan."""
+        if self.render_mode is None:
+            return None
+        import matplotlib
+
+        if self.render_mode == "rgb_array":
+            matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+
+        from uwb_env.show import draw_scene
+
+        fig, ax = plt.subplots(figsize=(6, 6), dpi=80)
+        draw_scene(ax, self.cfg, self.sim.sensor.layout)
+        k = self.sim.k
+        truth = self.sim.truth
+        if k > 0:
+            alive = truth.alive[k]
+            ax.plot(truth.states[k][alive, 0], truth.states[k][alive, 2], "k*", ms=10, label="truth")
+        tracks = self.sim.tracker.tracks
+        if len(tracks):
+            x, P = tracks.combined()
+            angle = np.linspace(0, 2 * np.pi, 60)
+            for i in np.flatnonzero(tracks.confirmed):
+                C = P[i][np.ix_([0, 2], [0, 2])]
+                w, V = np.linalg.eigh(C)
+                ell = (V * (2.0 * np.sqrt(np.maximum(w, 0.0)))) @ np.stack([np.cos(angle), np.sin(angle)])
+                ax.plot(x[i, 0] + ell[0], x[i, 2] + ell[1], "b-", lw=1)
+                ax.text(x[i, 0], x[i, 2], f" {tracks.ids[i]}", color="b", fontsize=8)
+        ax.set_title(f"scan {k}, action {self._previous}")
+        fig.canvas.draw()
+        img = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
+        if self.render_mode == "human":
+            plt.show(block=False)
+            plt.pause(1.0 / self.metadata["render_fps"])
+        plt.close(fig)
+        return img
