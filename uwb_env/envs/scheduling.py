@@ -36,6 +36,7 @@ from uwb_env.metrics import assign, ospa
 from uwb_env.sensing.records import ScanPlan
 from uwb_env.sim import ScanResult, Simulator
 from uwb_env.typing import FloatArray
+from uwb_env.units import dbm_to_watts
 
 ACTION_KINDS = ("waveform", "subset", "joint")
 FIDELITIES = ("parametric",)
@@ -131,7 +132,7 @@ class UWBSchedulingEnv(gym.Env):
         self._energy = np.array(
             [
                 sum(
-                    sensor.library[int(w)].scan_energy_j(10 ** (tx.power_dbm / 10) * 1e-3)
+                    sensor.library[int(w)].scan_energy_j(dbm_to_watts(tx.power_dbm))
                     for w, tx in zip(p.waveform, self.cfg.transmitters, strict=True)
                 )
                 for p in self.plans
@@ -225,23 +226,21 @@ class UWBSchedulingEnv(gym.Env):
         tracks = self.sim.tracker.tracks
         feats = np.zeros((self.n_slots, self.slot_features))
         if len(tracks):
-            order = np.lexsort((-tracks.existence, ~tracks.confirmed))[: self.n_slots]
-            t = tracks.select(np.isin(np.arange(len(tracks)), order))
-            order = np.lexsort((-t.existence, ~t.confirmed))
-            x, P = t.combined()
+            order = np.lexsort((-tracks.existence, ~tracks.confirmed))[: self.n_slots]  # confirmed, then existence
+            x, P = tracks.combined()
             x, P = x[order], P[order]
-            n = x.shape[0]
+            n = order.size
             vx, vy = P[:, 0, 0], P[:, 2, 2]
             f = feats[:n]
             f[:, 0] = 1.0
-            f[:, 1] = t.existence[order]
-            f[:, 2] = t.confirmed[order]
+            f[:, 1] = tracks.existence[order]
+            f[:, 2] = tracks.confirmed[order]
             f[:, 3:5] = (x[:, [0, 2]] - self._centre) / self._half
             f[:, 5:7] = x[:, [1, 3]] / self._v_max
             f[:, 7] = np.log10(vx) / 4.0
             f[:, 8] = np.log10(vy) / 4.0
             f[:, 9] = P[:, 0, 2] / np.sqrt(vx * vy)
-            f[:, 10:] = t.mu[order]
+            f[:, 10:] = tracks.mu[order]
         prev = np.zeros(len(self.plans))
         if self._previous is not None:
             prev[self._previous] = 1.0

@@ -698,6 +698,17 @@ class ParametricSensor:
         self._valid_plans[id(plan)] = (plan, derived)
         return derived
 
+    def _mean_link(
+        self, tx: int, rx: int, positions: FloatArray, waveform: int, rcs_m2: float, swerling: int
+    ) -> tuple[FloatArray, BoolArray, FloatArray, FloatArray]:
+        """``(azimuth (N,), covered (N,), mean SNR (N,), Pd (N,))`` of pair (tx, rx) at ``positions`` (N, 2)."""
+        pos = np.asarray(positions, dtype=float).reshape(-1, 2)
+        *_, az, covered, unit_snr = self._links(slice(tx, tx + 1), slice(rx, rx + 1), pos)
+        ok = covered[0, 0]
+        snr = np.where(ok, self.radar_constant[waveform, tx, rx] * rcs_m2 * unit_snr[0, 0], 0.0)
+        pd = np.where(ok, detection_probability(snr, self.cfg.sensing.false_alarm_probability, swerling), 0.0)
+        return az[0], ok, snr, pd
+
     def detection_probability_at(
         self, tx: int, rx: int, positions: FloatArray, waveform: int, rcs_m2: float = 1.0, swerling: int = 1
     ) -> FloatArray:
@@ -707,11 +718,7 @@ class ParametricSensor:
         and field of view at the given positions (the rules of the sensing itself), for an assumed mean RCS and
         Swerling case.
         """
-        pos = np.asarray(positions, dtype=float).reshape(-1, 2)
-        *_, covered, unit_snr = self._links(slice(tx, tx + 1), slice(rx, rx + 1), pos)
-        ok = covered[0, 0]
-        snr = np.where(ok, self.radar_constant[waveform, tx, rx] * rcs_m2 * unit_snr[0, 0], 0.0)
-        return np.where(ok, detection_probability(snr, self.cfg.sensing.false_alarm_probability, swerling), 0.0)
+        return self._mean_link(tx, rx, positions, waveform, rcs_m2, swerling)[3]
 
     def expected_measurement(
         self, tx: int, rx: int, positions: FloatArray, waveform: int, rcs_m2: float = 1.0, swerling: int = 1
@@ -721,16 +728,12 @@ class ParametricSensor:
         R is the waveform's covariance at the mean SNR (assumed RCS) with the azimuth variance of the array
         receiver appended (columns ``measurement_names(rx)``); uncovered positions get Pd = 0 and R at unit SNR.
         """
-        pos = np.asarray(positions, dtype=float).reshape(-1, 2)
-        *_, az, covered, unit_snr = self._links(slice(tx, tx + 1), slice(rx, rx + 1), pos)
-        ok = covered[0, 0]
-        snr = np.where(ok, self.radar_constant[waveform, tx, rx] * rcs_m2 * unit_snr[0, 0], 0.0)
-        pd = np.where(ok, detection_probability(snr, self.cfg.sensing.false_alarm_probability, swerling), 0.0)
+        az, ok, snr, pd = self._mean_link(tx, rx, positions, waveform, rcs_m2, swerling)
         safe = np.where(ok & (snr > 1.0), snr, 1.0)
         R = self.library[waveform].covariance(safe)
         if self._doa_rx[rx]:
             lay = self.layout
-            off = _wrap(az[0] - self._boresight[rx])
+            off = _wrap(az - self._boresight[rx])
             var = azimuth_variance(safe, lay.rx_n_elements[rx], lay.rx_spacing_m[rx], self._wavelengths[waveform], off)
             R = _append_block(R, var)
         return pd, R

@@ -638,29 +638,24 @@ def two_point_pairs(p, cov, p_prev, cov_prev, dt, max_speed):  # pragma: no cove
                 cost[k] = cst
                 k += 1
     order = np.argsort(cost[:k], kind="mergesort")
-    # first occurrence of each i in cost order, kept in the order of occurrence ...
-    seen_i = np.zeros(C, np.bool_)
-    first = np.empty(k, np.int64)
-    nf = 0
-    for q in range(k):
-        o = order[q]
-        if not seen_i[ii[o]]:
-            seen_i[ii[o]] = True
-            first[nf] = o
-            nf += 1
-    # ... then the first occurrence of each j among those
-    seen_j = np.zeros(Cp, np.bool_)
-    out_i = np.empty(nf, np.int64)
-    out_j = np.empty(nf, np.int64)
-    no = 0
-    for q in range(nf):
-        o = first[q]
-        if not seen_j[jj[o]]:
-            seen_j[jj[o]] = True
-            out_i[no] = ii[o]
-            out_j[no] = jj[o]
-            no += 1
-    return out_i[:no], out_j[:no]
+    first_i = _first_of_each(order, ii, C)  # cheapest pair of each current candidate ...
+    kept = _first_of_each(first_i, jj, Cp)  # ... then the cheapest of those for each previous one
+    return ii[kept], jj[kept]
+
+
+@_jit
+def _first_of_each(rows, key, n_keys):  # pragma: no cover - compiled
+    """The entries of ``rows`` whose ``key[row]`` appears for the first time, in order (np.unique return_index)."""
+    seen = np.zeros(n_keys, np.bool_)
+    out = np.empty(rows.size, np.int64)
+    n = 0
+    for q in range(rows.size):
+        o = rows[q]
+        if not seen[key[o]]:
+            seen[key[o]] = True
+            out[n] = o
+            n += 1
+    return out[:n]
 
 
 def weights_arrays(weights) -> tuple[FloatArray, FloatArray, float]:

@@ -165,7 +165,7 @@ class Tracker:
         self._kinds: dict[tuple[str, ...], np.ndarray] = {}
         self._masks: dict[tuple[str, ...], BoolArray] = {}
         self._indices: dict[bytes, IntArray] = {}
-        self._restricted: dict[tuple[float, tuple[int, ...]], tuple[FloatArray, FloatArray, FloatArray]] = {}
+        self._restricted: dict[tuple[float, bytes], tuple[FloatArray, FloatArray, FloatArray]] = {}
         self._matrices: dict[float, tuple[FloatArray, FloatArray]] = {}
         self._gates = {
             m: float(chi2.ppf(cfg.gate_probability, m)) if cfg.gate_probability < 1 else np.inf for m in (1, 2, 3, 4)
@@ -221,9 +221,9 @@ class Tracker:
 
     def _restricted_matrices(self, dt: float, mask: BoolArray) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Transition matrix restricted to the active set ``(a, a)`` and the active models' F, Q ``(a, 6, 6)``."""
-        key = (round(dt, 12), tuple(np.flatnonzero(mask)))
+        key = (round(dt, 12), mask.tobytes())
         if key not in self._restricted:
-            a = np.flatnonzero(mask)
+            a = self._active_index(mask)
             F, Q = self._model_matrices(dt)
             Pi = restrict_transition(self.transition, mask[None])[0][a][:, a]
             self._restricted[key] = (np.ascontiguousarray(Pi), np.ascontiguousarray(F[a]), np.ascontiguousarray(Q[a]))
