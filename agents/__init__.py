@@ -1,5 +1,23 @@
 """Schedulers: a small protocol and the open-loop and lookahead agents (SPEC.md agents/)."""
 
-from agents.schedulers import Fixed, Myopic, Random, RoundRobin, Scheduler
+from agents.schedulers import (
+    Fixed,
+    MultiStepLookahead,
+    Myopic,
+    Random,
+    RoundRobin,
+    Scheduler,
+    make_scheduler,
+    scheduler_names,
+)
 
-__all__ = ["Fixed", "Myopic", "Random", "RoundRobin", "Scheduler"]
+__all__ = [
+    "Fixed",
+    "MultiStepLookahead",
+    "Myopic",
+    "Random",
+    "RoundRobin",
+    "Scheduler",
+    "make_scheduler",
+    "scheduler_names",
+]

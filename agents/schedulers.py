@@ -1,15 +1,20 @@
 """Schedulers: ``reset(seed)`` then ``act(obs, env) -> action`` every scan.
 
 RoundRobin, Fixed and Random are seed 003's open-loop baselines; Myopic is its closed-loop scheduler, the argmin of
-the environment's one-step lookahead costs (seed 003 eq. 7). Ties go to the lowest action index.
+the environment's one-step lookahead costs (seed 003 eq. 7); MultiStepLookahead searches sequences of d plans on
+the expected covariance recursion (``uwb_env.lookahead.sequence_costs``). Ties go to the lowest action index.
+``make_scheduler("fixed-2")`` builds one from its name (the campaign's schemes).
 """
 
 from __future__ import annotations
 
+import re
 from typing import Any, Protocol
 
 import gymnasium as gym
 import numpy as np
+
+from uwb_env.lookahead import sequence_costs
 
 
 class Scheduler(Protocol):
@@ -96,3 +101,56 @@ class Myopic:
         costs = np.asarray(env.unwrapped.lookahead_costs(), dtype=float)
         costs = np.where(env.unwrapped.action_masks(), costs, np.inf)
         return int(np.argmin(costs))
+
+
+class MultiStepLookahead:
+    """Depth-d lookahead: the first plan of the cheapest d-scan sequence (beam-pruned; depth 1 is Myopic).
+
+    Args: depth d >= 1; beam: partial sequences kept after every scan (``None``: all); discount gamma in (0, 1].
+    """
+
+    def __init__(self, depth: int = 3, beam: int | None = 4, discount: float = 1.0) -> None:
+        if depth < 1:
+            raise ValueError(f"depth={depth}: must be >= 1")
+        if beam is not None and beam < 1:
+            raise ValueError(f"beam={beam}: must be >= 1 or None")
+        if not 0.0 < discount <= 1.0:
+            raise ValueError(f"discount={discount}: must be in (0, 1]")
+        self.depth, self.beam, self.discount = depth, beam, discount
+        self.name = f"lookahead-{depth}"
+
+    def reset(self, seed: int | None = None) -> None:
+        """Nothing to reset."""
+
+    def costs(self, env: gym.Env) -> np.ndarray:
+        """``(A,)`` the cheapest d-scan cost of the sequences starting with each action (``inf``: pruned)."""
+        e = env.unwrapped
+        period = e.cfg.sensing.scan_period_s
+        k = e.sim.k + 1
+        return sequence_costs(
+            e.sim.sensor, e.sim.tracker, e.plans, k * period, k, period, self.depth, self.beam, self.discount
+        )
+
+    def act(self, obs: Any, env: gym.Env) -> int:
+        """Argmin over the valid actions of :meth:`costs`."""
+        costs = np.where(env.unwrapped.action_masks(), self.costs(env), np.inf)
+        return int(np.argmin(costs))
+
+
+_NAMED = {"myopic": Myopic, "round-robin": RoundRobin, "random": Random}
+
+
+def scheduler_names() -> list[str]:
+    """The names ``make_scheduler`` accepts."""
+    return [*_NAMED, "fixed-K", "lookahead-D"]
+
+
+def make_scheduler(name: str) -> Scheduler:
+    """A scheduler from its name: ``myopic``, ``round-robin``, ``random``, ``fixed-K`` (action K), ``lookahead-D``."""
+    if name in _NAMED:
+        return _NAMED[name]()
+    if m := re.fullmatch(r"fixed-(\d+)", name):
+        return Fixed(int(m.group(1)))
+    if m := re.fullmatch(r"lookahead-(\d+)", name):
+        return MultiStepLookahead(int(m.group(1)))
+    raise ValueError(f"scheduler={name!r}: must be one of {scheduler_names()}")

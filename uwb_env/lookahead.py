@@ -19,6 +19,16 @@ factor q_2 of PDA in clutter (Kershaw and Evans) as an argument: ``q2 = 1`` (the
 clutter-free value. A calibrated q_2(P_D, clutter per gate) is not implemented yet.
 
 The whole computation is batched over plans x tracks (numpy), draws nothing and changes no state.
+
+Deeper lookahead (``sequence_costs``): the same recursion over sequences of d plans, scan after scan,
+
+    cost(a_1 .. a_d) = sum_l gamma^(l-1) (1 / T) sum_t trace(P^(t)_l [position block])
+
+where between scans the combined estimate is predicted by the moment-matched IMM prediction (every active model j
+from the combined (x, P): x_j = F_j x, P_j = F_j P F_j^T + Q_j, mixed with the predicted model probabilities
+mu^- = Pi^T mu and the spread of the x_j; the VS-IMM set of that scan, with the tracker's switch rule for mu).
+Means stay at their predictions (the expected innovation is zero). A beam of width B keeps, after every scan, the
+B cheapest partial sequences (``beam=None``: all A^d), so depth d costs A + (d - 1) B A expected updates.
 """
 
 from __future__ import annotations
@@ -29,10 +39,11 @@ import numpy as np
 
 from uwb_env.sensing.parametric import ParametricSensor
 from uwb_env.sensing.records import ScanPlan
+from uwb_env.tracking.imm import imm_combine, switch_model_sets
 from uwb_env.tracking.kernels import linearised_h, symmetrise, ukf_moments
 from uwb_env.tracking.measurement import angular_mask
 from uwb_env.tracking.tracker import Tracker
-from uwb_env.typing import FloatArray
+from uwb_env.typing import BoolArray, FloatArray
 
 POSITION = np.array([0, 2])
 
@@ -97,3 +108,100 @@ def lookahead_costs(
     Pa = expected_posterior(x, P, sensor, tracker, plans, q2)
     trace = Pa[..., 0, 0] + Pa[..., 2, 2]  # (A, N)
     return trace.mean(axis=1)
+
+
+def position_trace(P: FloatArray) -> FloatArray:
+    """Trace of the position block of ``(..., 6, 6)`` [m^2]."""
+    return P[..., 0, 0] + P[..., 2, 2]
+
+
+def predict_combined(
+    x: FloatArray, P: FloatArray, mu: FloatArray, active: BoolArray, tracker: Tracker, dt: float, scan_index: int
+) -> tuple[FloatArray, FloatArray, FloatArray, BoolArray]:
+    """Moment-matched IMM prediction of combined estimates (module docstring) to ``scan_index``, ``dt`` later.
+
+    Args: x ``(N, 6)``, P ``(N, 6, 6)``, mu ``(N, r)`` model probabilities on the set ``active`` ``(r,)``.
+    Returns: predicted x, P, mu and the new set's mask.
+    """
+    mask, Pi, F, Q = tracker.prediction_models(dt, scan_index)
+    if (mask != active).any():
+        n, r = mu.shape
+        mu, _, _ = switch_model_sets(
+            np.broadcast_to(active, (n, r)),
+            np.broadcast_to(mask, (n, r)),
+            mu,
+            np.zeros((n, r, 1)),
+            np.zeros((n, r, 1, 1)),
+        )
+    a = np.flatnonzero(mask)
+    mu_pred = np.zeros_like(mu)
+    mu_pred[:, a] = mu[:, a] @ Pi  # (N, a): mu^-_j = sum_i Pi_ij mu_i
+    xj = np.einsum("jkl,nl->njk", F, x)  # (N, a, 6)
+    Pj = F[None] @ P[:, None] @ np.swapaxes(F, -1, -2)[None] + Q[None]
+    xp, Pp = imm_combine(mu_pred[:, a], xj, Pj)
+    return xp, symmetrise(Pp), mu_pred, mask
+
+
+def sequence_costs(
+    sensor: ParametricSensor,
+    tracker: Tracker,
+    plans: Sequence[ScanPlan],
+    time_s: float,
+    scan_index: int,
+    scan_period_s: float,
+    depth: int,
+    beam: int | None = None,
+    discount: float = 1.0,
+    q2: float = 1.0,
+) -> FloatArray:
+    """``(A,)`` for every first plan, the cheapest d-scan cost of the sequences that start with it (module docstring).
+
+    ``inf`` for a first plan whose every sequence the beam pruned. Depth 1 is ``lookahead_costs``. Pure.
+    """
+    if depth < 1:
+        raise ValueError(f"depth={depth}: must be >= 1")
+    if beam is not None and beam < 1:
+        raise ValueError(f"beam={beam}: must be >= 1 or None (no pruning)")
+    if not 0.0 < discount <= 1.0:
+        raise ValueError(f"discount={discount}: must be in (0, 1]")
+    A = len(plans)
+    pred = tracker.predicted(time_s, scan_index)
+    keep = pred.confirmed
+    if not keep.any():
+        return np.zeros(A)
+    sel = pred.select(keep)
+    x, P = sel.combined()
+    mu, active = sel.mu, sel.active[0]
+    N = x.shape[0]
+    first = np.zeros(1, np.int64)  # per kept sequence: its first plan (none yet)
+    cum = np.zeros(1)  # per kept sequence: its cost so far
+    xs, Ps, mus = x[None], P[None], mu[None]  # (B, N, ...) per kept sequence
+    for level in range(depth):
+        B = cum.size
+        Pa = expected_posterior(xs.reshape(B * N, 6), Ps.reshape(B * N, 6, 6), sensor, tracker, plans, q2)
+        Pa = Pa.reshape(A, B, N, 6, 6)
+        step = position_trace(Pa).mean(axis=-1)  # (A, B)
+        total = cum[None] + discount**level * step
+        starts = np.broadcast_to(np.arange(A)[:, None], (A, B)) if level == 0 else np.broadcast_to(first, (A, B))
+        flat = total.ravel()
+        order = np.argsort(flat, kind="stable")
+        if beam is not None and level < depth - 1:
+            order = order[:beam]
+        if level == depth - 1:
+            costs = np.full(A, np.inf)
+            np.minimum.at(costs, starts.ravel()[order], flat[order])
+            return costs
+        ai, bi = np.unravel_index(order, (A, B))
+        first, cum = starts[ai, bi], flat[order]
+        k = scan_index + level + 1
+        x2, P2, mu2, active2 = predict_combined(
+            xs[bi].reshape(-1, 6),
+            Pa[ai, bi].reshape(-1, 6, 6),
+            mus[bi].reshape(-1, mu.shape[1]),
+            active,
+            tracker,
+            scan_period_s,
+            k,
+        )
+        xs, Ps, mus, active = x2.reshape(-1, N, 6), P2.reshape(-1, N, 6, 6), mu2.reshape(-1, N, mu.shape[1]), active2
+    raise AssertionError("unreachable")

@@ -210,6 +210,7 @@ class UWBSchedulingEnv(gym.Env):
         info = {
             "scan_index": res.scan_index,
             "covariance_trace": mean_trace,
+            "target_covariance_trace": float(trace[ti].mean()) if ti.size else 0.0,
             "missed_targets": missed,
             "missed_penalty": self.missed_target_penalty_m2 * missed,
             "energy_j": energy,

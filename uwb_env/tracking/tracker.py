@@ -229,6 +229,14 @@ class Tracker:
             self._restricted[key] = (np.ascontiguousarray(Pi), np.ascontiguousarray(F[a]), np.ascontiguousarray(Q[a]))
         return self._restricted[key]
 
+    def prediction_models(self, dt: float, scan_index: int) -> tuple[BoolArray, FloatArray, FloatArray, FloatArray]:
+        """The model set of ``scan_index`` for period ``dt`` (read-only, cached).
+
+        Returns: active mask ``(r,)``, restricted transition matrix ``(a, a)``, the active models' F, Q ``(a, 6, 6)``.
+        """
+        mask = self._active_mask(scan_index)
+        return (mask, *self._restricted_matrices(dt, mask))
+
     # ------------------------------------------------------------------------------------------------ scan
     def step(self, detections: Sequence[Detections], time_s: float, scan_index: int) -> TrackSet:
         """Process one scan of detections (all pairs) and return the updated tracks."""

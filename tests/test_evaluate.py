@@ -1,0 +1,107 @@
+"""The Monte Carlo campaign: paired runs, per-run metrics, resume, summary."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from scripts.evaluate import Campaign, main, mean_ci, run_campaign, run_metrics, run_path, summarise
+
+SMALL = {"n_scans": 12, "targets.1.birth_time_s": 1.0}
+
+
+def _campaign(runs: int) -> Campaign:
+    return Campaign(
+        env="uwb_env/UrbanWaveform-v0",
+        schemes=("myopic", "round-robin@open-loop"),
+        baseline="round-robin@open-loop",
+        runs=runs,
+        seed0=7,
+        overrides=SMALL,
+    )
+
+
+def test_run_metrics_by_hand():
+    rec = {
+        "true_confirmed": np.array([0.0, 1.0, 2.0]),
+        "sq_error_sum": np.array([0.0, 0.25, 0.5]),  # 3 matched errors, squared sum 0.75 -> RMSE 0.5
+        "ospa_m": np.array([10.0, 1.0, 1.0]),
+        "confirmed": np.array([0.0, 2.0, 2.0]),
+        "false": np.array([0.0, 1.0, 0.0]),
+        "trace_m2": np.array([np.nan, 3.0, 1.0]),
+        "target_trace_m2": np.array([np.nan, 2.0, 1.0]),
+        "energy_j": np.array([1e-3, 1e-3, 2e-3]),
+        "reward": np.array([-100.0, -3.0, -1.0]),
+    }
+    m = run_metrics(rec)
+    assert m["rmse_m"] == pytest.approx(0.5)
+    assert m["ospa_m"] == pytest.approx(4.0)
+    assert m["confirmed"] == pytest.approx(4 / 3) and m["true_confirmed"] == pytest.approx(1.0)
+    assert m["false"] == pytest.approx(1 / 3)
+    assert m["trace_m2"] == pytest.approx(2.0) and m["target_trace_m2"] == pytest.approx(1.5)
+    assert m["energy_j"] == pytest.approx(4e-3) and m["return"] == pytest.approx(-104.0)
+
+
+def test_mean_ci_is_the_t_interval():
+    mean, half, n = mean_ci(np.array([1.0, 2.0, 3.0, np.nan]))
+    assert (mean, n) == (2.0, 3)
+    assert half == pytest.approx(4.302652729911275 * 1.0 / math.sqrt(3))  # t_0.975(2) s / sqrt(n), s = 1
+
+
+def test_resumed_campaign_gives_the_same_summary(tmp_path):
+    """Uninterrupted (one process) vs interrupted (2 runs over two processes, a run file lost, then 3 runs)."""
+    whole, parts = tmp_path / "whole", tmp_path / "parts"
+    run_campaign(_campaign(3), whole, workers=1, progress=False)
+    reference = summarise(_campaign(3), whole)
+
+    run_campaign(_campaign(2), parts, workers=2, progress=False)
+    lost = run_path(parts, "myopic", 8)
+    lost.unlink()  # as if the campaign was killed while this run was playing
+    kept = run_path(parts, "round-robin@open-loop", 7)
+    stamp = kept.stat().st_mtime_ns
+    run_campaign(_campaign(3), parts, workers=1, progress=False)
+    assert kept.stat().st_mtime_ns == stamp  # finished runs are not recomputed
+    assert summarise(_campaign(3), parts) == reference
+    assert (parts / "runs.csv").read_text() == (whole / "runs.csv").read_text()
+    for name in ("confirmed_tracks.png", "position_rmse.png", "model_probabilities.png"):
+        assert (parts / name).stat().st_size > 10_000
+
+    # common random numbers: the truth is the same for every scheme of a seed
+    a = np.loadtxt(run_path(whole, "myopic", 9), delimiter=",", skiprows=1)
+    b = np.loadtxt(run_path(whole, "round-robin@open-loop", 9), delimiter=",", skiprows=1)
+    np.testing.assert_array_equal(a[:, 1], b[:, 1])  # alive targets per scan
+    assert a.shape == (12, 13 + 4) and b.shape == (12, 13 + 1)  # VS-IMM's 4 models, the open loop's one
+
+
+def test_a_changed_definition_does_not_resume(tmp_path):
+    run_campaign(_campaign(2), tmp_path, workers=1, progress=False)
+    other = Campaign(**{**_campaign(2).__dict__, "overrides": {**SMALL, "n_scans": 13}})
+    with pytest.raises(ValueError, match="field 'overrides'"):
+        run_campaign(other, tmp_path, workers=1, progress=False)
+    assert json.loads((tmp_path / "campaign.json").read_text())["overrides"] == SMALL
+
+
+def test_bad_campaigns_raise():
+    with pytest.raises(ValueError, match="env='x'"):
+        Campaign(env="x", schemes=("myopic",), baseline="myopic", runs=3)
+    with pytest.raises(ValueError, match="runs=1"):
+        Campaign(env="uwb_env/UrbanWaveform-v0", schemes=("myopic",), baseline="myopic", runs=1)
+    with pytest.raises(ValueError, match="tracker 'nn'"):
+        Campaign(env="uwb_env/UrbanWaveform-v0", schemes=("myopic@nn",), baseline="myopic@nn", runs=3)
+    with pytest.raises(ValueError, match="scheduler='greedy'"):
+        Campaign(env="uwb_env/UrbanWaveform-v0", schemes=("greedy",), baseline="greedy", runs=3)
+    with pytest.raises(ValueError, match="baseline='random'"):
+        Campaign(env="uwb_env/UrbanWaveform-v0", schemes=("myopic",), baseline="random", runs=3)
+    with pytest.raises(ValueError, match="--set 'n_scans'"):
+        main(["--set", "n_scans", "--runs", "2"])
+
+
+def test_command_line_prints_the_table(tmp_path, capsys):
+    main(["--schemes", "fixed-0", "fixed-3", "--runs", "2", "--set", "n_scans=8", "--set", "targets.1.birth_time_s=1", "--out", str(tmp_path),
+          "--workers", "1", "--no-progress"])  # fmt: skip
+    out = capsys.readouterr().out
+    assert "| fixed-0 | position RMSE [m] |" in out and "Paired differences against `fixed-3`" in out
+    assert (tmp_path / "summary.md").read_text() in out
