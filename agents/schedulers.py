@@ -2,7 +2,8 @@
 
 RoundRobin, Fixed and Random are seed 003's open-loop baselines; Myopic is its closed-loop scheduler, the argmin of
 the environment's one-step lookahead costs (seed 003 eq. 7); MultiStepLookahead searches sequences of d plans on
-the expected covariance recursion (``uwb_env.lookahead.sequence_costs``). Ties go to the lowest action index.
+the expected covariance recursion (``uwb_env.lookahead.sequence_costs``). Ties (no track yet: every cost is 0) go
+to the plan that transmits the most energy -- the best detection for search -- then to the lowest action index.
 ``make_scheduler("fixed-2")`` builds one from its name (the campaign's schemes).
 """
 
@@ -32,6 +33,14 @@ def _n_actions(env: gym.Env) -> int:
     if not isinstance(space, gym.spaces.Discrete):
         raise TypeError(f"action_space {space}: these schedulers need a Discrete action space")
     return int(space.n)
+
+
+def best_action(costs: np.ndarray, env: gym.Env) -> int:
+    """The valid action of least cost; ties to the most transmitted energy, then the lowest index."""
+    e = env.unwrapped
+    costs = np.where(e.action_masks(), np.asarray(costs, dtype=float), np.inf)
+    tied = np.flatnonzero(costs == costs.min())
+    return int(tied[np.argmax(e.plan_energy_j[tied])])
 
 
 class RoundRobin:
@@ -98,9 +107,7 @@ class Myopic:
 
     def act(self, obs: Any, env: gym.Env) -> int:
         """Argmin over the valid actions of ``env.unwrapped.lookahead_costs()``."""
-        costs = np.asarray(env.unwrapped.lookahead_costs(), dtype=float)
-        costs = np.where(env.unwrapped.action_masks(), costs, np.inf)
-        return int(np.argmin(costs))
+        return best_action(env.unwrapped.lookahead_costs(), env)
 
 
 class MultiStepLookahead:
@@ -133,8 +140,7 @@ class MultiStepLookahead:
 
     def act(self, obs: Any, env: gym.Env) -> int:
         """Argmin over the valid actions of :meth:`costs`."""
-        costs = np.where(env.unwrapped.action_masks(), self.costs(env), np.inf)
-        return int(np.argmin(costs))
+        return best_action(self.costs(env), env)
 
 
 _NAMED = {"myopic": Myopic, "round-robin": RoundRobin, "random": Random}

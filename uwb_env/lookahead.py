@@ -1,6 +1,7 @@
 r"""One-step lookahead: the expected cost of every scan plan after the next scan (seed 003 eq. 7), pure.
 
-For the confirmed tracks, from the tracker's predicted state (IMM mixing + prediction to the next scan time,
+For the confirmed tracks (the reward's; before any track is confirmed, the tentative ones, whose confirmation the
+next scan decides), from the tracker's predicted state (IMM mixing + prediction to the next scan time,
 combined), and for every candidate plan a:
 
     P_a <- P_pred
@@ -42,10 +43,15 @@ from uwb_env.sensing.records import ScanPlan
 from uwb_env.tracking.imm import imm_combine, switch_model_sets
 from uwb_env.tracking.kernels import linearised_h, symmetrise, ukf_moments
 from uwb_env.tracking.measurement import angular_mask
-from uwb_env.tracking.tracker import Tracker
+from uwb_env.tracking.tracker import Tracker, TrackSet
 from uwb_env.typing import BoolArray, FloatArray
 
 POSITION = np.array([0, 2])
+
+
+def scored_tracks(tracks: TrackSet) -> BoolArray:
+    """``(N,)`` the tracks a lookahead scores: the confirmed ones, or every (tentative) track when none is."""
+    return tracks.confirmed if tracks.confirmed.any() else np.ones(len(tracks), bool)
 
 
 def expected_posterior(
@@ -96,12 +102,12 @@ def lookahead_costs(
     scan_index: int,
     q2: float = 1.0,
 ) -> FloatArray:
-    """Expected mean position-covariance trace ``(A,)`` [m^2] over the confirmed tracks after the next scan.
+    """Expected mean position-covariance trace ``(A,)`` [m^2] over the scored tracks after the next scan.
 
-    Zero for every plan when there is no confirmed track. Pure: no tracker state changes, no random draw.
+    Zero for every plan when there is no track. Pure: no tracker state changes, no random draw.
     """
     pred = tracker.predicted(time_s, scan_index)
-    keep = pred.confirmed
+    keep = scored_tracks(pred)
     if not keep.any():
         return np.zeros(len(plans))
     x, P = pred.select(keep).combined()
@@ -166,7 +172,7 @@ def sequence_costs(
         raise ValueError(f"discount={discount}: must be in (0, 1]")
     A = len(plans)
     pred = tracker.predicted(time_s, scan_index)
-    keep = pred.confirmed
+    keep = scored_tracks(pred)
     if not keep.any():
         return np.zeros(A)
     sel = pred.select(keep)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +18,9 @@ from uwb_env.config import ChirpWaveformConfig, ScenarioConfig
 from uwb_env.rng import RngStreams
 from uwb_env.scene import SceneLayout, Truth, sample_truth
 from uwb_env.sensing import ParametricSensor, ScanPlan
+from uwb_env.sensing.records import Detections
+from uwb_env.tracking.initiation import range_azimuth_candidates
+from uwb_env.typing import FloatArray
 from uwb_env.units import linear_to_db
 
 
@@ -99,6 +103,33 @@ def draw_scene(ax: Any, cfg: ScenarioConfig, lay: SceneLayout) -> None:
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
+
+
+def draw_detections(ax: Any, detections: Sequence[Detections], tx_pos: FloatArray, rx_pos: FloatArray) -> None:
+    """One scan's detections: the located point of a range + azimuth detection, else its iso-range ellipse.
+
+    The bistatic ellipse |p - tx| + |p - rx| = r has foci tx, rx, semi-axes r / 2 and sqrt(r^2 - d^2) / 2 (d the
+    baseline); a point uses the azimuth line through rx (``range_azimuth_candidates``, range-rate ignored).
+    """
+    t = np.linspace(0.0, 2.0 * np.pi, 90)
+    for det in detections:  # pairs: a small set; every detection of a pair in one array call
+        if not len(det):
+            continue
+        tx, rx = tx_pos[det.tx], rx_pos[det.rx]
+        r = det.z[:, 0]
+        if "azimuth" in det.measurement_names:
+            theta = det.z[:, det.measurement_names.index("azimuth")]
+            p, _, ok = range_azimuth_candidates(r, np.ones_like(r), theta, np.ones_like(r), tx, rx)
+            ax.plot(p[ok, 0], p[ok, 1], "x", color="tab:orange", ms=4, label="detections")
+            continue
+        base = np.linalg.norm(rx - tx)
+        a, b = r / 2.0, np.sqrt(np.maximum(r**2 - base**2, 0.0)) / 2.0
+        phi = math.atan2(*(rx - tx)[::-1])
+        ex, ey = a[:, None] * np.cos(t), b[:, None] * np.sin(t)  # (n, 90)
+        cx, cy = (tx + rx) / 2.0
+        xs = cx + ex * math.cos(phi) - ey * math.sin(phi)
+        ys = cy + ex * math.sin(phi) + ey * math.cos(phi)
+        ax.plot(xs.T, ys.T, "-", color="tab:orange", lw=0.5, alpha=0.6)
 
 
 def draw(cfg: ScenarioConfig, truth: Truth, sensor: ParametricSensor, path: Path) -> None:

@@ -129,7 +129,7 @@ class UWBSchedulingEnv(gym.Env):
         self._centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2])
         self._half = np.array([(x1 - x0) / 2, (y1 - y0) / 2])
         self._v_max = self.cfg.tracker.max_speed_mps
-        self._energy = np.array(
+        self.plan_energy_j = np.array(
             [
                 sum(
                     sensor.library[int(w)].scan_energy_j(dbm_to_watts(tx.power_dbm))
@@ -202,7 +202,7 @@ class UWBSchedulingEnv(gym.Env):
         tracks_pos = x[conf][:, [0, 2]]
         ti, gi = assign(tracks_pos, targets, self.cover_gate_m)
         missed = int(alive.sum()) - int(gi.size)
-        energy = float(self._energy[action])
+        energy = float(self.plan_energy_j[action])
         reward = -mean_trace - self.missed_target_penalty_m2 * missed - self.energy_cost_per_j * energy
         if not math.isfinite(reward):
             raise FloatingPointError(f"reward is {reward} at scan {res.scan_index}: mean trace {mean_trace}")
@@ -259,7 +259,7 @@ class UWBSchedulingEnv(gym.Env):
 
     # ---------------------------------------------------------------------------------------------- rendering
     def render(self) -> np.ndarray | None:
-        """The scene, truth, confirmed tracks with 2-sigma ellipses and ids, and the chosen plan."""
+        """The scene, truth, the scan's detections, confirmed tracks with 2-sigma ellipses and ids, the chosen plan."""
         if self.render_mode is None:
             return None
         import matplotlib
@@ -268,7 +268,7 @@ class UWBSchedulingEnv(gym.Env):
             matplotlib.use("Agg", force=False)
         import matplotlib.pyplot as plt
 
-        from uwb_env.show import draw_scene
+        from uwb_env.show import draw_detections, draw_scene
 
         fig, ax = plt.subplots(figsize=(6, 6), dpi=80)
         draw_scene(ax, self.cfg, self.sim.sensor.layout)
@@ -277,6 +277,9 @@ class UWBSchedulingEnv(gym.Env):
         if k > 0:
             alive = truth.alive[k]
             ax.plot(truth.states[k][alive, 0], truth.states[k][alive, 2], "k*", ms=10, label="truth")
+        if self._last is not None:
+            lay = self.sim.sensor.layout
+            draw_detections(ax, self._last.detections, lay.tx_pos, lay.rx_pos)
         tracks = self.sim.tracker.tracks
         if len(tracks):
             x, P = tracks.combined()
