@@ -14,20 +14,18 @@ import time
 import gymnasium as gym
 
 import uwb_env  # noqa: F401
-from agents import Fixed, Myopic, Random, RoundRobin
-
-AGENTS = {"random": Random, "round-robin": RoundRobin, "myopic": Myopic, "fixed-0": lambda: Fixed(0)}
+from agents import make_scheduler, scheduler_names
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--episodes", type=int, default=5)
     ap.add_argument("--env", default="uwb_env/UrbanWaveform-v0")
-    ap.add_argument("--agents", nargs="+", default=["random", "myopic"], choices=sorted(AGENTS))
+    ap.add_argument("--agents", nargs="+", default=["random", "myopic"], help=f"scheduler names: {scheduler_names()}")
     args = ap.parse_args()
     env = gym.make(args.env)
     for name in args.agents:
-        agent = AGENTS[name]()
+        agent = make_scheduler(name)
         steps, elapsed = 0, 0.0
         for seed in range(-1, args.episodes):  # seed -1: warm-up, not timed
             episode_seed = 1000 if seed < 0 else seed

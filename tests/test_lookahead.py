@@ -125,3 +125,17 @@ def test_lookahead_agents_by_name(mid_episode):
     assert make_scheduler("fixed-2").act(None, env) == 2
     with pytest.raises(ValueError, match="scheduler='greedy'"):
         make_scheduler("greedy")
+
+
+def test_expected_measurements_batch_the_waveforms(mid_episode):
+    """One geometry for W waveforms: each row equals the single-waveform sensor model."""
+    sensor = mid_episode.sim.sensor
+    x, _ = mid_episode.sim.tracker.tracks.combined()
+    pos = x[:, [0, 2]]
+    pd, R = sensor.expected_measurements(0, 1, pos, np.array([0, 2, 3]), 10.0, 1)
+    assert pd.shape == (3, len(pos)) and R.shape == (3, len(pos), 3, 3)  # range, range-rate, azimuth
+    for i, w in enumerate((0, 2, 3)):
+        np.testing.assert_array_equal(pd[i], sensor.detection_probability_at(0, 1, pos, w, 10.0, 1))
+        one_pd, one_R = sensor.expected_measurements(0, 1, pos, np.array([w]), 10.0, 1)
+        np.testing.assert_array_equal(one_R[0], R[i])
+    assert (pd[1] >= pd[0]).all()  # the long pulse carries 2.75x the energy of the short one

@@ -81,11 +81,11 @@ def expected_posterior(
         wf = waveforms[:, tx]
         pd = np.zeros((A, N))
         R = np.zeros((A, N, len(names), len(names)))
-        for w in np.unique(wf[used]).tolist():  # the waveforms the plans send: a small set
-            pd_w, R_w = sensor.expected_measurement(tx, rx, pos, w, cfg.assumed_rcs_m2, cfg.assumed_swerling)
-            sel = (wf == w) & used
-            pd[sel] = np.minimum(pd_w, cfg.max_detection_probability)
-            R[sel] = R_w
+        sent = np.unique(wf[used])  # the waveforms the plans send: a small set
+        pd_w, R_w = sensor.expected_measurements(tx, rx, pos, sent, cfg.assumed_rcs_m2, cfg.assumed_swerling)
+        which = np.searchsorted(sent, wf[used])
+        pd[used] = np.minimum(pd_w[which], cfg.max_detection_probability)
+        R[used] = R_w[which]
         PHt = Pa @ np.swapaxes(H, -1, -2)[None]  # (A, N, 6, m)
         S = H[None] @ PHt + R
         K = np.swapaxes(np.linalg.solve(S, np.swapaxes(PHt, -1, -2)), -1, -2)

@@ -50,7 +50,7 @@ from uwb_env.scene.layout import SceneLayout
 from uwb_env.scene.truth import Truth
 from uwb_env.sensing.pd import detection_probability, threshold_from_pfa
 from uwb_env.sensing.records import Detections, ScanPlan
-from uwb_env.typing import BoolArray, FloatArray
+from uwb_env.typing import BoolArray, FloatArray, IntArray
 from uwb_env.units import dbm_to_watts
 from uwb_env.waveforms.library import WaveformLibrary
 
@@ -699,13 +699,18 @@ class ParametricSensor:
         return derived
 
     def _mean_link(
-        self, tx: int, rx: int, positions: FloatArray, waveform: int, rcs_m2: float, swerling: int
+        self, tx: int, rx: int, positions: FloatArray, waveforms: IntArray, rcs_m2: float, swerling: int
     ) -> tuple[FloatArray, BoolArray, FloatArray, FloatArray]:
-        """``(azimuth (N,), covered (N,), mean SNR (N,), Pd (N,))`` of pair (tx, rx) at ``positions`` (N, 2)."""
+        """Mean-SNR link of pair (tx, rx) at ``positions`` (N, 2) for each of ``waveforms`` (W,).
+
+        Returns ``(azimuth (N,), covered (N,), mean SNR (W, N), Pd (W, N))``: the geometry once, the radar
+        constant per waveform.
+        """
         pos = np.asarray(positions, dtype=float).reshape(-1, 2)
         *_, az, covered, unit_snr = self._links(slice(tx, tx + 1), slice(rx, rx + 1), pos)
         ok = covered[0, 0]
-        snr = np.where(ok, self.radar_constant[waveform, tx, rx] * rcs_m2 * unit_snr[0, 0], 0.0)
+        k = self.radar_constant[waveforms, tx, rx][:, None]
+        snr = np.where(ok, k * (rcs_m2 * unit_snr[0, 0]), 0.0)
         pd = np.where(ok, detection_probability(snr, self.cfg.sensing.false_alarm_probability, swerling), 0.0)
         return az[0], ok, snr, pd
 
@@ -718,25 +723,30 @@ class ParametricSensor:
         and field of view at the given positions (the rules of the sensing itself), for an assumed mean RCS and
         Swerling case.
         """
-        return self._mean_link(tx, rx, positions, waveform, rcs_m2, swerling)[3]
+        return self._mean_link(tx, rx, positions, np.array([waveform]), rcs_m2, swerling)[3][0]
 
-    def expected_measurement(
-        self, tx: int, rx: int, positions: FloatArray, waveform: int, rcs_m2: float = 1.0, swerling: int = 1
+    def expected_measurements(
+        self, tx: int, rx: int, positions: FloatArray, waveforms: IntArray, rcs_m2: float = 1.0, swerling: int = 1
     ) -> tuple[FloatArray, FloatArray]:
-        """Sensor model of one pair for the lookahead: ``(Pd (N,), R (N, m, m))`` at ``positions`` (N, 2) [m].
+        """Sensor model of one pair for the lookahead: ``(Pd (W, N), R (W, N, m, m))`` for each of ``waveforms``.
 
+        At ``positions`` (N, 2) [m], for the waveforms ``(W,)``.
         R is the waveform's covariance at the mean SNR (assumed RCS) with the azimuth variance of the array
         receiver appended (columns ``measurement_names(rx)``); uncovered positions get Pd = 0 and R at unit SNR.
         """
-        az, ok, snr, pd = self._mean_link(tx, rx, positions, waveform, rcs_m2, swerling)
+        waveforms = np.asarray(waveforms, dtype=np.int64).reshape(-1)
+        az, ok, snr, pd = self._mean_link(tx, rx, positions, waveforms, rcs_m2, swerling)
         safe = np.where(ok & (snr > 1.0), snr, 1.0)
-        R = self.library[waveform].covariance(safe)
+        R = [self.library[int(w)].covariance(safe[i]) for i, w in enumerate(waveforms)]  # the plans' few waveforms
         if self._doa_rx[rx]:
             lay = self.layout
             off = _wrap(az - self._boresight[rx])
-            var = azimuth_variance(safe, lay.rx_n_elements[rx], lay.rx_spacing_m[rx], self._wavelengths[waveform], off)
-            R = _append_block(R, var)
-        return pd, R
+            n_el, spacing = lay.rx_n_elements[rx], lay.rx_spacing_m[rx]
+            R = [
+                _append_block(Ri, azimuth_variance(safe[i], n_el, spacing, self._wavelengths[w], off))
+                for i, (Ri, w) in enumerate(zip(R, waveforms.tolist(), strict=True))
+            ]
+        return pd, np.stack(R)
 
     def measurement_names(self, rx: int) -> tuple[str, ...]:
         """Measurement components of receiver ``rx``'s detections."""
