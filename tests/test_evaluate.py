@@ -100,8 +100,8 @@ def test_bad_campaigns_raise():
 
 
 def test_command_line_prints_the_table(tmp_path, capsys):
-    main(["--schemes", "fixed-0", "fixed-3", "--runs", "2", "--set", "n_scans=8", "--set", "targets.1.birth_time_s=1", "--out", str(tmp_path),
-          "--workers", "1", "--no-progress"])  # fmt: skip
+    args = ["--schemes", "fixed-0", "fixed-3", "--runs", "2", "--set", "n_scans=8", "--set", "targets.1.birth_time_s=1"]
+    main([*args, "--out", str(tmp_path), "--workers", "1", "--no-progress"])
     out = capsys.readouterr().out
     assert "| fixed-0 | position RMSE [m] |" in out and "Paired differences against `fixed-3`" in out
     assert (tmp_path / "summary.md").read_text() in out

@@ -136,6 +136,6 @@ def test_expected_measurements_batch_the_waveforms(mid_episode):
     assert pd.shape == (3, len(pos)) and R.shape == (3, len(pos), 3, 3)  # range, range-rate, azimuth
     for i, w in enumerate((0, 2, 3)):
         np.testing.assert_array_equal(pd[i], sensor.detection_probability_at(0, 1, pos, w, 10.0, 1))
-        one_pd, one_R = sensor.expected_measurements(0, 1, pos, np.array([w]), 10.0, 1)
+        _, one_R = sensor.expected_measurements(0, 1, pos, np.array([w]), 10.0, 1)
         np.testing.assert_array_equal(one_R[0], R[i])
     assert (pd[1] >= pd[0]).all()  # the long pulse carries 2.75x the energy of the short one
