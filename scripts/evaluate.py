@@ -214,11 +214,16 @@ def run_campaign(campaign: Campaign, out: pathlib.Path, workers: int = 1, progre
     meta.write_text(json.dumps({**dataclasses.asdict(campaign), "schemes": list(campaign.schemes)}, indent=2))
     jobs = [(s, seed) for s in campaign.schemes for seed in campaign.seeds() if not run_path(out, s, seed).exists()]
     bar = tqdm(total=len(jobs), desc="runs", unit="run", disable=not progress)
-    if workers <= 1:
+    if workers <= 1 or len(jobs) <= 1:
         for s, seed in jobs:
             run_one(campaign, s, seed, run_path(out, s, seed))
             bar.update()
     else:
+        # The first run plays here: it compiles (or loads) the numba kernels once, and the forked workers inherit
+        # them instead of compiling side by side on a fresh install.
+        s, seed = jobs.pop(0)
+        run_one(campaign, s, seed, run_path(out, s, seed))
+        bar.update()
         with ProcessPoolExecutor(max_workers=workers) as pool:
             futures = [pool.submit(run_one, campaign, s, seed, run_path(out, s, seed)) for s, seed in jobs]
             for f in as_completed(futures):
