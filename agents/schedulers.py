@@ -15,7 +15,7 @@ from typing import Any, Protocol
 import gymnasium as gym
 import numpy as np
 
-from uwb_env.lookahead import sequence_costs
+from uwb_env.lookahead import check_search, sequence_costs
 
 
 class Scheduler(Protocol):
@@ -117,12 +117,7 @@ class MultiStepLookahead:
     """
 
     def __init__(self, depth: int = 3, beam: int | None = 4, discount: float = 1.0) -> None:
-        if depth < 1:
-            raise ValueError(f"depth={depth}: must be >= 1")
-        if beam is not None and beam < 1:
-            raise ValueError(f"beam={beam}: must be >= 1 or None")
-        if not 0.0 < discount <= 1.0:
-            raise ValueError(f"discount={discount}: must be in (0, 1]")
+        check_search(depth, beam, discount)
         self.depth, self.beam, self.discount = depth, beam, discount
         self.name = f"lookahead-{depth}"
 

@@ -247,19 +247,23 @@ def load_runs(campaign: Campaign, out: pathlib.Path) -> dict[str, list[dict[str,
     return runs
 
 
+def finite_mean(values: np.ndarray) -> float:
+    """Mean of the finite values (nan when there is none)."""
+    v = values[np.isfinite(values)]
+    return float(v.mean()) if v.size else math.nan
+
+
 def run_metrics(rec: dict[str, np.ndarray]) -> dict[str, float]:
     """The per-run metrics of the module docstring from one run's record."""
     matched = rec["true_confirmed"].sum()
-    with_tracks = np.isfinite(rec["trace_m2"])
-    on_targets = np.isfinite(rec["target_trace_m2"])
     return {
         "rmse_m": float(np.sqrt(rec["sq_error_sum"].sum() / matched)) if matched else math.nan,
         "ospa_m": float(rec["ospa_m"].mean()),
         "confirmed": float(rec["confirmed"].mean()),
         "true_confirmed": float(rec["true_confirmed"].mean()),
         "false": float(rec["false"].mean()),
-        "trace_m2": float(rec["trace_m2"][with_tracks].mean()) if with_tracks.any() else math.nan,
-        "target_trace_m2": float(np.nanmean(rec["target_trace_m2"])) if on_targets.any() else math.nan,
+        "trace_m2": finite_mean(rec["trace_m2"]),  # scans with a confirmed track
+        "target_trace_m2": finite_mean(rec["target_trace_m2"]),  # scans with a track on a target
         "energy_j": float(rec["energy_j"].sum()),
         "return": float(rec["reward"].sum()),
     }
@@ -277,7 +281,8 @@ def mean_ci(values: np.ndarray, level: float = 0.95) -> tuple[float, float, int]
 def summarise(campaign: Campaign, out: pathlib.Path) -> str:
     """Write ``runs.csv``, ``summary.md`` and the plots; return the Markdown summary."""
     runs = load_runs(campaign, out)
-    metrics = {s: {m: np.array([run_metrics(r)[m] for r in rs]) for m in METRICS} for s, rs in runs.items()}
+    per_run = {s: [run_metrics(r) for r in rs] for s, rs in runs.items()}
+    metrics = {s: {m: np.array([r[m] for r in rs]) for m in METRICS} for s, rs in per_run.items()}
     with (out / "runs.csv").open("w") as f:
         f.write("scheme,seed," + ",".join(METRICS) + "\n")
         for s in campaign.schemes:

@@ -40,7 +40,7 @@ import numpy as np
 
 from uwb_env.sensing.parametric import ParametricSensor
 from uwb_env.sensing.records import ScanPlan
-from uwb_env.tracking.imm import imm_combine, switch_model_sets
+from uwb_env.tracking.imm import imm_combine, switch_probabilities
 from uwb_env.tracking.kernels import linearised_h, symmetrise, ukf_moments
 from uwb_env.tracking.measurement import angular_mask
 from uwb_env.tracking.tracker import Tracker, TrackSet
@@ -49,9 +49,25 @@ from uwb_env.typing import BoolArray, FloatArray
 POSITION = np.array([0, 2])
 
 
-def scored_tracks(tracks: TrackSet) -> BoolArray:
-    """``(N,)`` the tracks a lookahead scores: the confirmed ones, or every (tentative) track when none is."""
-    return tracks.confirmed if tracks.confirmed.any() else np.ones(len(tracks), bool)
+def scored_prediction(tracker: Tracker, time_s: float, scan_index: int) -> TrackSet | None:
+    """The tracks a lookahead scores, predicted to the next scan (pure, ``Tracker.predicted``).
+
+    The confirmed ones, or every (tentative) track when none is; ``None`` without any track.
+    """
+    pred = tracker.predicted(time_s, scan_index)
+    if not len(pred):
+        return None
+    return pred.select(pred.confirmed) if pred.confirmed.any() else pred
+
+
+def check_search(depth: int, beam: int | None, discount: float) -> None:
+    """Validate the sequence search's depth >= 1, beam >= 1 or ``None``, discount in (0, 1]."""
+    if depth < 1:
+        raise ValueError(f"depth={depth}: must be >= 1")
+    if beam is not None and beam < 1:
+        raise ValueError(f"beam={beam}: must be >= 1 or None (no pruning)")
+    if not 0.0 < discount <= 1.0:
+        raise ValueError(f"discount={discount}: must be in (0, 1]")
 
 
 def expected_posterior(
@@ -106,14 +122,11 @@ def lookahead_costs(
 
     Zero for every plan when there is no track. Pure: no tracker state changes, no random draw.
     """
-    pred = tracker.predicted(time_s, scan_index)
-    keep = scored_tracks(pred)
-    if not keep.any():
+    scored = scored_prediction(tracker, time_s, scan_index)
+    if scored is None:
         return np.zeros(len(plans))
-    x, P = pred.select(keep).combined()
-    Pa = expected_posterior(x, P, sensor, tracker, plans, q2)
-    trace = Pa[..., 0, 0] + Pa[..., 2, 2]  # (A, N)
-    return trace.mean(axis=1)
+    x, P = scored.combined()
+    return position_trace(expected_posterior(x, P, sensor, tracker, plans, q2)).mean(axis=1)
 
 
 def position_trace(P: FloatArray) -> FloatArray:
@@ -131,14 +144,7 @@ def predict_combined(
     """
     mask, Pi, F, Q = tracker.prediction_models(dt, scan_index)
     if (mask != active).any():
-        n, r = mu.shape
-        mu, _, _ = switch_model_sets(
-            np.broadcast_to(active, (n, r)),
-            np.broadcast_to(mask, (n, r)),
-            mu,
-            np.zeros((n, r, 1)),
-            np.zeros((n, r, 1, 1)),
-        )
+        mu = switch_probabilities(np.broadcast_to(active, mu.shape), np.broadcast_to(mask, mu.shape), mu)
     a = np.flatnonzero(mask)
     mu_pred = np.zeros_like(mu)
     mu_pred[:, a] = mu[:, a] @ Pi  # (N, a): mu^-_j = sum_i Pi_ij mu_i
@@ -164,20 +170,13 @@ def sequence_costs(
 
     ``inf`` for a first plan whose every sequence the beam pruned. Depth 1 is ``lookahead_costs``. Pure.
     """
-    if depth < 1:
-        raise ValueError(f"depth={depth}: must be >= 1")
-    if beam is not None and beam < 1:
-        raise ValueError(f"beam={beam}: must be >= 1 or None (no pruning)")
-    if not 0.0 < discount <= 1.0:
-        raise ValueError(f"discount={discount}: must be in (0, 1]")
+    check_search(depth, beam, discount)
     A = len(plans)
-    pred = tracker.predicted(time_s, scan_index)
-    keep = scored_tracks(pred)
-    if not keep.any():
+    scored = scored_prediction(tracker, time_s, scan_index)
+    if scored is None:
         return np.zeros(A)
-    sel = pred.select(keep)
-    x, P = sel.combined()
-    mu, active = sel.mu, sel.active[0]
+    x, P = scored.combined()
+    mu, active = scored.mu, scored.active[0]
     N = x.shape[0]
     first = np.zeros(1, np.int64)  # per kept sequence: its first plan (none yet)
     cum = np.zeros(1)  # per kept sequence: its cost so far

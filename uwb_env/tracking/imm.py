@@ -65,15 +65,8 @@ def imm_combine(mu: FloatArray, x: FloatArray, P: FloatArray) -> tuple[FloatArra
     return mixture_reduce(mu, x, P)
 
 
-def switch_model_sets(
-    active_old: BoolArray, active_new: BoolArray, mu: FloatArray, x: FloatArray, P: FloatArray
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Apply the VS-IMM set-change rule of the module docstring; returns (mu, x, P) on the new sets."""
-    changed = (active_old != active_new).any(axis=-1)
-    if not changed.any():
-        return mu, x, P
-    mu, x, P = mu.copy(), x.copy(), P.copy()
-    xc, Pc = imm_combine(mu, x, P)
+def switch_probabilities(active_old: BoolArray, active_new: BoolArray, mu: FloatArray) -> FloatArray:
+    """The model probabilities ``(N, r)`` on the new sets under the set-change rule of the module docstring."""
     added = active_new & ~active_old
     removed = active_old & ~active_new
     lost = np.where(removed, mu, 0.0).sum(axis=-1)
@@ -86,7 +79,18 @@ def switch_model_sets(
     fix = (n_added == 0) & (kept_mass > 0)
     mu = np.where(fix[:, None], mu / np.where(kept_mass > 0, kept_mass, 1.0)[:, None], mu)
     empty = mu.sum(axis=-1) <= 0
-    mu = np.where(empty[:, None], active_new / np.maximum(active_new.sum(-1), 1)[:, None], mu)
+    return np.where(empty[:, None], active_new / np.maximum(active_new.sum(-1), 1)[:, None], mu)
+
+
+def switch_model_sets(
+    active_old: BoolArray, active_new: BoolArray, mu: FloatArray, x: FloatArray, P: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Apply the VS-IMM set-change rule of the module docstring; returns (mu, x, P) on the new sets."""
+    changed = (active_old != active_new).any(axis=-1)
+    if not changed.any():
+        return mu, x, P
+    xc, Pc = imm_combine(mu, x, P)
+    added = active_new & ~active_old
     x = np.where(added[..., None], xc[:, None], x)
     P = np.where(added[..., None, None], Pc[:, None], P)
-    return mu, x, P
+    return switch_probabilities(active_old, active_new, mu), x, P
