@@ -514,13 +514,128 @@ _WAVEFORM_TYPES = (ChirpWaveformConfig, ImpulseWaveformConfig)
 
 # ---------------------------------------------------------------------------------------------- sensing, tracker
 @dataclass(frozen=True, slots=True)
+class SignalConfig:
+    """Signal-level fidelity (seed 000 sections IV-V; ``uwb_env.sensing.signal``, ``detection``, ``localization``).
+
+    Synthesis: scans of ``n_samples`` at ``sample_rate_hz`` (seed 000: 16.4 GHz, 1920 samples) with the direct path
+    ``direct_path_offset_s`` into the window plus a per-scan timing jitter of std ``scan_jitter_s``; a static
+    background of ``n_multipath`` paths ``multipath_spacing_s`` apart with an exponential power-delay profile of
+    constant ``multipath_decay_s`` and total power ``multipath_power_ratio_db`` relative to the direct path (seed 002),
+    drawn once from ``background_seed`` (the room); background amplitudes fluctuate by an AR(1) process of relative std
+    ``clutter_fluctuation`` and scan-to-scan correlation ``clutter_correlation`` (slowly moving clutter); a target
+    within ``shadow_radius_m`` of a path's legs attenuates that path by ``shadow_loss_db`` (the source of ghosts). The
+    empty-room reference averages ``empty_room_scans`` noisy scans.
+
+    In-sensor chain: square-law envelope with a Gaussian low-pass of std ``envelope_lpf_s``; direct-path ToA by jump
+    back ``dp_jump_back_s`` from the strongest sample and search forward for ``dp_threshold_ratio`` of it;
+    ``background`` ``empty_room`` (seed 000 eq. 13) or ``exponential`` (seed 001, factor ``background_alpha``);
+    CFAR ``cfar`` in {dtb, ca, g, os}: DTB with ``dtb_alpha_local``, ``dtb_alpha_global``, ``dtb_buffer``,
+    ``dtb_qmax`` and increment ``dtb_delta`` (in units of the global power), CA/G/OS designed for ``cfar_pfa`` with
+    ``cfar_reference`` / ``cfar_guard`` samples and OS rank ``os_rank``; 1-D clustering with distance
+    ``cluster_distance_s`` and weight threshold ``cluster_min_weight`` (seed 000: 65 Ts, 4); ``toa_estimator``
+    ``median`` (seed 000) or ``peak`` (quadratic fit on the cluster's peak, seed 003's peak refinement).
+
+    Network chain: ``nu``-tuples of receivers, measurement weight threshold ``min_tuple_weight`` and residual
+    threshold ``max_residual_m`` (the LS residual of seed 000 eq. 25, normalised to metres: see
+    ``uwb_env.localization.ellipse``), 2-D clustering with ``linkage`` and ``cluster_2d_distance_m``; the position
+    covariance is the geometry's (J^T J)^-1 sigma_r^2 with sigma_r = ``range_std_floor_m``; the tracker's clutter
+    density of fused positions is ``false_position_density_per_m2`` (the defaults are measured on indoor-rsn:
+    ``scripts/calibrate_parametric.py``).
+    """
+
+    sample_rate_hz: float = 16.4e9
+    n_samples: int = 1920
+    direct_path_offset_s: float = 20e-9
+    scan_jitter_s: float = 0.5e-9
+    n_multipath: int = 20
+    multipath_spacing_s: float = 4e-9
+    multipath_decay_s: float = 20e-9
+    multipath_power_ratio_db: float = -3.0
+    background_seed: int = 0
+    clutter_fluctuation: float = 0.005
+    clutter_correlation: float = 0.9
+    shadow_radius_m: float = 0.25
+    shadow_loss_db: float = 20.0
+    empty_room_scans: int = 16
+    envelope_lpf_s: float = 0.12e-9
+    dp_threshold_ratio: float = 0.3
+    dp_jump_back_s: float = 3e-9
+    background: Literal["empty_room", "exponential"] = "empty_room"
+    background_alpha: float = 0.9
+    cfar: Literal["dtb", "ca", "g", "os"] = "dtb"
+    dtb_alpha_local: float = 5.0
+    dtb_alpha_global: float = 8.0
+    dtb_buffer: int = 25
+    dtb_qmax: int = 4
+    dtb_delta: float = 0.5
+    cfar_pfa: float = 1e-4
+    cfar_reference: int = 32
+    cfar_guard: int = 16
+    os_rank: int = 48
+    cluster_distance_s: float = 65 / 16.4e9
+    cluster_min_weight: int = 4
+    toa_estimator: Literal["median", "peak"] = "peak"
+    nu: int = 3
+    min_tuple_weight: float = 30.0
+    max_residual_m: float = 0.15
+    linkage: Literal["centroid", "single", "complete"] = "centroid"
+    cluster_2d_distance_m: float = 0.5
+    range_std_floor_m: float = 0.05
+    false_position_density_per_m2: float = 0.004
+
+    def __post_init__(self) -> None:
+        for name in (
+            "sample_rate_hz",
+            "direct_path_offset_s",
+            "multipath_spacing_s",
+            "multipath_decay_s",
+            "envelope_lpf_s",
+            "dp_jump_back_s",
+            "dtb_alpha_local",
+            "dtb_alpha_global",
+            "cluster_distance_s",
+            "max_residual_m",
+            "cluster_2d_distance_m",
+        ):
+            _positive("SignalConfig", name, getattr(self, name))
+        for name in ("scan_jitter_s", "clutter_fluctuation", "shadow_radius_m", "shadow_loss_db", "dtb_delta"):
+            _non_negative("SignalConfig", name, getattr(self, name))
+        _non_negative("SignalConfig", "min_tuple_weight", self.min_tuple_weight)
+        _non_negative("SignalConfig", "range_std_floor_m", self.range_std_floor_m)
+        _non_negative("SignalConfig", "false_position_density_per_m2", self.false_position_density_per_m2)
+        _finite("SignalConfig", "multipath_power_ratio_db", self.multipath_power_ratio_db)
+        _int_at_least("SignalConfig", "n_samples", self.n_samples, 64)
+        _int_at_least("SignalConfig", "n_multipath", self.n_multipath, 0)
+        _int_at_least("SignalConfig", "background_seed", self.background_seed, 0)
+        _int_at_least("SignalConfig", "empty_room_scans", self.empty_room_scans, 1)
+        _int_at_least("SignalConfig", "dtb_buffer", self.dtb_buffer, 1)
+        _int_at_least("SignalConfig", "dtb_qmax", self.dtb_qmax, 1)
+        _int_at_least("SignalConfig", "cfar_reference", self.cfar_reference, 1)
+        _int_at_least("SignalConfig", "cfar_guard", self.cfar_guard, 0)
+        _int_at_least("SignalConfig", "cluster_min_weight", self.cluster_min_weight, 1)
+        _int_at_least("SignalConfig", "nu", self.nu, 3)
+        if not 1 <= self.os_rank <= 2 * self.cfar_reference:
+            _fail("SignalConfig", "os_rank", self.os_rank, f"in [1, 2 x cfar_reference = {2 * self.cfar_reference}]")
+        _in_range("SignalConfig", "clutter_correlation", self.clutter_correlation, 0.0, 1.0, closed="[)")
+        _in_range("SignalConfig", "background_alpha", self.background_alpha, 0.0, 1.0, closed="()")
+        _in_range("SignalConfig", "dp_threshold_ratio", self.dp_threshold_ratio, 0.0, 1.0, closed="()")
+        _in_range("SignalConfig", "cfar_pfa", self.cfar_pfa, 0.0, 0.5, closed="()")
+        _choice("SignalConfig", "background", self.background, ("empty_room", "exponential"))
+        _choice("SignalConfig", "cfar", self.cfar, ("dtb", "ca", "g", "os"))
+        _choice("SignalConfig", "toa_estimator", self.toa_estimator, ("median", "peak"))
+        _choice("SignalConfig", "linkage", self.linkage, ("centroid", "single", "complete"))
+        if self.direct_path_offset_s * self.sample_rate_hz >= self.n_samples:
+            _fail("SignalConfig", "direct_path_offset_s", self.direct_path_offset_s, "inside the scan window")
+
+
+@dataclass(frozen=True, slots=True)
 class SensingConfig:
     """How a scan is sensed.
 
     ``max_range_m``: a target is covered by a pair only if both legs are shorter. ``blind_zone_excess_m``:
     detections whose bistatic range exceeds the baseline by less than this are discarded (seed 000 section IV-G;
     for a monostatic radar this is twice seed 002's blind range d*). ``measure_doa`` adds the azimuth measured by
-    array receivers.
+    array receivers. ``signal`` holds the knobs of the signal-level fidelity (:class:`SignalConfig`).
     """
 
     fidelity: Literal["parametric", "signal"] = "parametric"
@@ -530,6 +645,7 @@ class SensingConfig:
     blind_zone_excess_m: float = 0.0
     measure_doa: bool = False
     clutter: ClutterConfig = field(default_factory=ClutterConfig)
+    signal: SignalConfig = field(default_factory=SignalConfig)
 
     def __post_init__(self) -> None:
         _choice("SensingConfig", "fidelity", self.fidelity, ("parametric", "signal"))

@@ -19,6 +19,7 @@ from uwb_env.rng import RngStreams
 from uwb_env.scene.truth import Truth, sample_truth
 from uwb_env.sensing.parametric import EpisodeSensing, ParametricSensor
 from uwb_env.sensing.records import Detections, ScanPlan
+from uwb_env.sensing.signal import SignalSensor
 from uwb_env.tracking.tracker import Tracker, TrackSet
 from uwb_env.typing import FloatArray
 
@@ -38,7 +39,7 @@ class Simulator:
 
     def __init__(self, cfg: ScenarioConfig, tracker: TrackerConfig | None = None, use_sensor_pd: bool = True) -> None:
         self.cfg = cfg
-        self.sensor = ParametricSensor(cfg)
+        self.sensor = SignalSensor(cfg) if cfg.sensing.fidelity == "signal" else ParametricSensor(cfg)
         self.tracker_cfg = tracker or cfg.tracker
         lay = self.sensor.layout
         self.tracker = Tracker(self.tracker_cfg, lay.tx_pos, lay.rx_pos, lay.area, self._pd if use_sensor_pd else None)
@@ -46,11 +47,21 @@ class Simulator:
         self.k = 0
 
     def _pd(self, tx: int, rx: int, positions: FloatArray) -> FloatArray:
+        """Pd of pair (tx, rx) at ``positions``; ``rx = -1`` is the network's fused position measurement."""
         tc = self.tracker_cfg
-        assert self._plan is not None  # set by step() before the tracker runs
-        pd = self.sensor.detection_probability_at(
-            tx, rx, positions, int(self._plan.waveform[tx]), tc.assumed_rcs_m2, tc.assumed_swerling
-        )
+        plan = self._plan
+        assert plan is not None  # set by step() before the tracker runs
+        w = int(plan.waveform[tx])
+        if rx >= 0:
+            pd = self.sensor.detection_probability_at(tx, rx, positions, w, tc.assumed_rcs_m2, tc.assumed_swerling)
+        else:
+            per_rx = np.array(
+                [
+                    self.sensor.detection_probability_at(tx, r, positions, w, tc.assumed_rcs_m2, tc.assumed_swerling)
+                    for r in np.flatnonzero(plan.active_rx)  # the listening receivers: a handful
+                ]
+            )
+            pd = at_least(per_rx, self.cfg.sensing.signal.nu)
         return np.minimum(pd, tc.max_detection_probability)
 
     def reset(self, seed: int | np.random.SeedSequence | None) -> None:
@@ -76,6 +87,22 @@ class Simulator:
         dets = self.sensor.sense(self.episode, self.k, plan, t)
         tracks = self.tracker.step(dets, t, self.k)
         return ScanResult(self.k, t, dets, tracks)
+
+
+def at_least(pd: FloatArray, n: int) -> FloatArray:
+    """P(at least ``n`` of independent detections happen), ``pd`` (R, N) -> (N,) (Poisson-binomial recursion).
+
+    The network chain forms a position from a tuple of ``nu`` receivers' ToAs, so a target yields a position
+    measurement when at least ``nu`` of the listening receivers detect it.
+    """
+    dist = np.zeros((n + 1, *pd.shape[1:]))  # P(j detections so far), j = 0..n-1, and ">= n" in the last row
+    dist[0] = 1.0
+    for p in pd:  # receivers: a handful
+        top = dist[n] + p * dist[n - 1]
+        dist[1:n] = dist[1:n] * (1.0 - p) + dist[0 : n - 1] * p
+        dist[0] = dist[0] * (1.0 - p)
+        dist[n] = top
+    return dist[n]
 
 
 def run_episode(sim: Simulator, seed: int, policy: Callable[[int], ScanPlan], gate_m: float = 10.0) -> TrackAccounting:

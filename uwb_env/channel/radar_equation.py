@@ -28,6 +28,14 @@ def noise_psd(noise_figure_db: float) -> float:
     return BOLTZMANN_J_PER_K * REFERENCE_TEMPERATURE_K * db_to_linear(noise_figure_db)
 
 
+def _spectrum(center_freq_hz: float, rms_bandwidth_hz: float, n_grid: int) -> tuple[FloatArray, FloatArray]:
+    """Frequency grid over fc +- 5 beta (positive frequencies) and the normalised Gaussian power spectrum on it."""
+    lo = max(center_freq_hz - 5.0 * rms_bandwidth_hz, center_freq_hz * 1e-3)
+    f = np.linspace(lo, center_freq_hz + 5.0 * rms_bandwidth_hz, n_grid)
+    p = np.exp(-0.5 * ((f - center_freq_hz) / rms_bandwidth_hz) ** 2)
+    return f, p / np.trapezoid(p, f)
+
+
 def bistatic_radar_constant(
     scan_energy_j: float,
     center_freq_hz: float,
@@ -43,14 +51,34 @@ def bistatic_radar_constant(
 
     The spectrum integral runs over fc +- 5 beta (positive frequencies only) with the trapezoidal rule.
     """
-    lo = max(center_freq_hz - 5.0 * rms_bandwidth_hz, center_freq_hz * 1e-3)
-    f = np.linspace(lo, center_freq_hz + 5.0 * rms_bandwidth_hz, n_grid)
-    p = np.exp(-0.5 * ((f - center_freq_hz) / rms_bandwidth_hz) ** 2)
-    p /= np.trapezoid(p, f)
+    f, p = _spectrum(center_freq_hz, rms_bandwidth_hz, n_grid)
     g0 = path_gain(f, channel.reference_distance_m, center_freq_hz, channel)
     integral = np.trapezoid(p * 4.0 * np.pi * f**2 / SPEED_OF_LIGHT_MPS**2 * g0**2, f)
     gains = db_to_linear(tx_gain_db + rx_gain_db) * n_elements
     return float(scan_energy_j / noise_psd(noise_figure_db) * gains * integral)
+
+
+def direct_path_snr(
+    scan_energy_j: float,
+    center_freq_hz: float,
+    rms_bandwidth_hz: float,
+    tx_gain_db: float,
+    rx_gain_db: float,
+    noise_figure_db: float,
+    distance_m: FloatArray,
+    channel: ChannelConfig,
+    n_grid: int = 801,
+) -> FloatArray:
+    """Integrated E/N0 of the direct Tx -> Rx path at ``distance_m`` [m].
+
+    One-way Friis with the 802.15.4a path loss:
+    SNR = (E_scan / N0) G_t G_r int p(f) g(f, d) df, p the normalised spectrum (as in :func:`bistatic_radar_constant`).
+    """
+    f, p = _spectrum(center_freq_hz, rms_bandwidth_hz, n_grid)
+    d = np.asarray(distance_m, dtype=float)
+    g = path_gain(f, d[..., None], center_freq_hz, channel)
+    gains = db_to_linear(tx_gain_db + rx_gain_db)
+    return scan_energy_j / noise_psd(noise_figure_db) * gains * np.trapezoid(p * g, f, axis=-1)
 
 
 def leg_lengths(tx_pos: FloatArray, rx_pos: FloatArray, tgt_pos: FloatArray) -> tuple[FloatArray, FloatArray]:

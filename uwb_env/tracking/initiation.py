@@ -24,6 +24,7 @@ import itertools
 import numpy as np
 from scipy.stats import chi2
 
+from uwb_env.localization.ellipse import ellipse_intersection
 from uwb_env.typing import BoolArray, FloatArray
 
 
@@ -67,49 +68,6 @@ def range_azimuth_candidates(
     J = np.stack([u * dd_dr[:, None], u * dd_dth[:, None] + d[:, None] * up], axis=-1)  # (n, 2, 2)
     cov = J @ (np.stack([var_r, var_theta], axis=-1)[:, :, None] * np.swapaxes(J, -1, -2))
     return p, 0.5 * (cov + np.swapaxes(cov, -1, -2)), valid
-
-
-def ellipse_intersection(
-    ranges: FloatArray, variances: FloatArray, tx: FloatArray, rx: FloatArray, starts: FloatArray, n_iter: int = 15
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Least-squares intersection of iso-range ellipses (seed 000 eqs. 16-23), batched over tuples.
-
-    Args:
-        ranges, variances: ``(N, nu)`` bistatic ranges [m] and variances of each tuple; tx, rx: ``(N, nu, 2)`` the
-        nodes of each range; starts: ``(S, 2)`` initial points tried for every tuple.
-
-    Returns:
-        position ``(N, 2)``, covariance ``(N, 2, 2)`` = (J^T V^-1 J)^-1, normalised residual ``(N,)`` (chi-square
-        with nu - 2 degrees of freedom if the model holds).
-    """
-    N = ranges.shape[0]
-    p = np.broadcast_to(starts[None], (N, starts.shape[0], 2)).copy()  # (N, S, 2)
-    w = 1.0 / variances[:, None, :]  # (N, 1, nu)
-
-    def residual_and_jacobian(p: FloatArray) -> tuple[FloatArray, FloatArray]:
-        dt = p[:, :, None, :] - tx[:, None]  # (N, S, nu, 2)
-        dr = p[:, :, None, :] - rx[:, None]
-        lt = np.maximum(np.linalg.norm(dt, axis=-1), 1e-9)
-        lr = np.maximum(np.linalg.norm(dr, axis=-1), 1e-9)
-        res = ranges[:, None, :] - (lt + lr)
-        J = dt / lt[..., None] + dr / lr[..., None]  # d h / d p
-        return res, J
-
-    for _ in range(n_iter):  # fixed Gauss-Newton iterations, batched over tuples and starts
-        res, J = residual_and_jacobian(p)
-        A = np.einsum("nsk,nski,nskj->nsij", np.broadcast_to(w, res.shape), J, J)
-        A = A + 1e-9 * (np.trace(A, axis1=-2, axis2=-1)[..., None, None] + 1e-12) * np.eye(2)  # degenerate geometry
-        g = np.einsum("nsk,nski,nsk->nsi", np.broadcast_to(w, res.shape), J, res)
-        p = p + np.linalg.solve(A, g[..., None])[..., 0]
-    res, J = residual_and_jacobian(p)
-    cost = np.sum(res**2 * w, axis=-1)  # (N, S)
-    best = np.argmin(cost, axis=1)
-    idx = np.arange(N)
-    Jb = J[idx, best]
-    info = np.einsum("nk,nki,nkj->nij", w[:, 0], Jb, Jb)
-    # relative regularisation: a degenerate geometry (parallel gradients) yields a huge, not singular, covariance
-    info = info + 1e-9 * (np.trace(info, axis1=-2, axis2=-1)[:, None, None] + 1e-12) * np.eye(2)
-    return p[idx, best], np.linalg.inv(info), cost[idx, best]
 
 
 def range_only_candidates(

@@ -413,6 +413,10 @@ class Tracker:
             if not free.any():
                 continue
             names = det.measurement_names
+            if names == ("x", "y"):  # fused positions (the signal path's network chain): candidates as they are
+                ps.append(det.z[free])
+                covs.append(det.R[free])
+                continue
             tx, rx = self.tx_pos[det.tx], self.rx_pos[det.rx]
             if fast and "azimuth" in names:
                 p, cov = compiled.azimuth_candidates(

@@ -1,0 +1,391 @@
+r"""Signal-level sensing: synthesised scans through seed 000's in-sensor and network chains (``fidelity="signal"``).
+
+One scan, for the pairs the plan activates:
+
+1. synthesis (:mod:`uwb_env.sensing.signal.synthesis`): the room's static background (direct path and seed 002's
+   exponential multipath, fixed by ``signal.background_seed``) with slowly fluctuating amplitudes, shadowed where a
+   target stands on a path's legs; the targets' echoes at their bistatic delays with radar-equation amplitudes,
+   Swerling RCS and random carrier phase; the scan's timing jitter; unit AWGN (after pulse integration);
+2. in-sensor chain (:mod:`uwb_env.detection`): envelope, direct-path ToA, alignment onto the reference (empty room or
+   exponential-averaging background), rectified difference, blind zone, CFAR, 1-D clustering -> ToAs and weights;
+3. network chain (:mod:`uwb_env.localization`): nu-tuple ellipse intersection, weight / residual filtering, 2-D
+   clustering -> one :class:`Detections` record of 2-D positions (``measurement_names = ("x", "y")``, ``rx = -1``).
+
+Every random draw is made for every formed pair, whatever the plan, so the streams never depend on the actions
+(common random numbers). The parametric sensor of the same scenario (``self.model``) supplies the geometry, the
+radar constants and the sensor model a tracker or lookahead uses.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from uwb_env.channel.radar_equation import direct_path_snr
+from uwb_env.channel.rcs import rcs_fluctuation
+from uwb_env.config import ScenarioConfig
+from uwb_env.constants import SPEED_OF_LIGHT_MPS
+from uwb_env.detection import (
+    align_to_reference,
+    ca_cfar,
+    ca_threshold_factor,
+    cluster_detections,
+    direct_path_toa,
+    dtb_cfar,
+    exponential_background,
+    fractional_shift,
+    g_cfar,
+    os_cfar,
+    os_threshold_factor,
+    parabolic_peak,
+    rectified_difference,
+    square_law_envelope,
+)
+from uwb_env.localization import locate
+from uwb_env.rng import RngStreams
+from uwb_env.scene.truth import Truth
+from uwb_env.sensing.parametric import EpisodeGeometry, ParametricSensor
+from uwb_env.sensing.records import Detections, ScanPlan
+from uwb_env.sensing.signal.synthesis import (
+    ar1_step,
+    exponential_profile,
+    points_on_ellipse,
+    pulse_envelope_std_s,
+    segment_distance,
+    unit_pulses,
+)
+from uwb_env.typing import BoolArray, FloatArray, IntArray
+from uwb_env.units import db_to_linear
+from uwb_env.waveforms.impulse import ImpulseWaveform
+
+ORIGIN_TOLERANCE_M = 0.3  # a ToA within this bistatic range of a target's echo is attributed to it (evaluation only)
+_POSITION_NAMES = ("x", "y")
+
+
+@dataclass(slots=True)
+class SignalEpisode:
+    """Per-episode state of the signal path: geometry, the empty-room references, the clutter and background state."""
+
+    geom: EpisodeGeometry
+    truth: Truth
+    rngs: RngStreams
+    fluctuation: FloatArray  # (P, L) AR(1) relative amplitude fluctuation of the background paths
+    reference: FloatArray  # (W, P, N) reference envelopes (empty room, or the exponential background)
+    reference_toa: FloatArray  # (W, P) direct-path ToA of the references [samples]
+    reference_peak: FloatArray  # (W, P) direct-path peak of the references [samples] (time origin of the ranges)
+    cache: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True, slots=True)
+class ScanTrace:
+    """Every intermediate of one scan's in-sensor chain, for pictures and calibration. Rows = the active pairs.
+
+    scans, envelope (aligned onto the reference), reference, difference (rectified, blind zone removed),
+    decisions: ``(P, N)``; pairs: ``(P,)`` pair indices; toa_row, toa_samples, weight, peak: the clusters (flat);
+    ranges: ``(D,)`` bistatic ranges [m]; origin: ``(D,)`` target index or -1 (evaluation only).
+    """
+
+    scans: FloatArray
+    envelope: FloatArray
+    reference: FloatArray
+    difference: FloatArray
+    decisions: BoolArray
+    pairs: IntArray
+    toa_row: IntArray
+    toa_samples: FloatArray
+    weight: IntArray
+    peak: FloatArray
+    ranges: FloatArray
+    origin: IntArray
+
+
+class SignalSensor:
+    """Synthesises each scan and runs the detection and localization chains (component tier)."""
+
+    def __init__(self, cfg: ScenarioConfig) -> None:
+        self.cfg = cfg
+        self.sig = sig = cfg.sensing.signal
+        self.model = ParametricSensor(cfg)
+        self.layout, self.library = self.model.layout, self.model.library
+        self.n_tx, self.n_rx = self.model.n_tx, self.model.n_rx
+        if not all(isinstance(w, ImpulseWaveform) for w in self.library.waveforms):
+            raise ValueError(
+                f"sensing.fidelity = 'signal' in {cfg.name!r}: the signal path synthesises impulse waveforms only "
+                f"(library: {[w.name for w in self.library.waveforms]})"
+            )
+        if self.n_tx != 1:
+            raise ValueError(
+                f"sensing.fidelity = 'signal' in {cfg.name!r}: the network chain (seed 000) intersects ellipses "
+                f"sharing one transmitter; the scenario has {self.n_tx}"
+            )
+        lay = self.layout
+        self.pairs = self.model.pairs  # (P, 2)
+        P = self.pairs.shape[0]
+        self.fs = sig.sample_rate_hz
+        self.t = np.arange(sig.n_samples) / self.fs
+        self.baseline = lay.baselines[self.pairs[:, 0], self.pairs[:, 1]]  # (P,)
+        tx_pos, rx_pos = lay.tx_pos[self.pairs[:, 0]], lay.rx_pos[self.pairs[:, 1]]
+        self.fc = np.array([w.center_freq_hz for w in self.library.waveforms])
+        self.pulse_s = np.array([pulse_envelope_std_s(w.rms_bandwidth_hz) for w in self.library.waveforms])
+        if len(set(self.fc.tolist())) > 1 or len(set(self.pulse_s.tolist())) > 1:
+            raise ValueError(
+                f"waveforms of {cfg.name!r}: the signal path needs one pulse shape (centre frequency and bandwidth) "
+                "for the whole library; the waveforms may differ in pulse integration (n_pulses) only"
+            )
+        # Direct-path SNR per (waveform, pair).
+        self.dp_snr = np.array(
+            [
+                [
+                    direct_path_snr(
+                        w.scan_energy_j(10.0 ** (cfg.transmitters[t].power_dbm / 10.0) * 1e-3),
+                        w.center_freq_hz,
+                        w.rms_bandwidth_hz,
+                        cfg.transmitters[t].antenna_gain_db,
+                        cfg.receivers[r].antenna_gain_db,
+                        cfg.receivers[r].noise_figure_db,
+                        self.baseline[i],
+                        cfg.channel,
+                    )
+                    for i, (t, r) in enumerate(self.pairs.tolist())
+                ]
+                for w in self.library.waveforms
+            ]
+        )
+        # The room: background paths of every pair, drawn once from background_seed (the same in every episode).
+        room = np.random.default_rng(sig.background_seed)
+        L = sig.n_multipath
+        excess, amp, phase = (
+            zip(
+                *[
+                    exponential_profile(
+                        room,
+                        L,
+                        sig.multipath_spacing_s,
+                        sig.multipath_decay_s,
+                        db_to_linear(sig.multipath_power_ratio_db),
+                    )
+                    for _ in range(P)
+                ],
+                strict=True,
+            )
+            if P
+            else ((), (), ())
+        )
+        excess = np.array(excess).reshape(P, L)
+        self.path_delay_s = np.concatenate([np.zeros((P, 1)), excess], axis=1)  # (P, L + 1) excess over the DP
+        self.path_amplitude = np.concatenate([np.ones((P, 1)), np.array(amp).reshape(P, L)], axis=1)
+        self.path_phase = np.concatenate([np.zeros((P, 1)), np.array(phase).reshape(P, L)], axis=1)
+        angle = room.uniform(0.0, 2.0 * math.pi, (P, L))
+        self.bounce = (
+            np.stack(  # (P, L, 2) virtual reflection point of each multipath on its delay ellipse
+                [
+                    points_on_ellipse(tx_pos[i], rx_pos[i], self.baseline[i] + SPEED_OF_LIGHT_MPS * excess[i], angle[i])
+                    for i in range(P)
+                ]
+            )
+            if P
+            else np.zeros((0, L, 2))
+        )
+        self.dp_sample = sig.direct_path_offset_s * self.fs
+        fc, s = float(self.fc[0]), float(self.pulse_s[0])
+        self._pulse = (fc, s)
+        self.path_waveforms = unit_pulses(  # (P, L + 1, N) unit-energy paths on the reference time base
+            self.t, sig.direct_path_offset_s + self.path_delay_s, self.path_phase, fc, s, self.fs
+        )
+        self._legs = (
+            np.broadcast_to(tx_pos[:, None], (P, L + 1, 2)),
+            np.concatenate([rx_pos[:, None], self.bounce], axis=1),
+            np.concatenate([rx_pos[:, None], np.broadcast_to(rx_pos[:, None], (P, L, 2))], axis=1),
+        )
+        self.lpf = sig.envelope_lpf_s * self.fs
+        self.jump_back = max(1, round(sig.dp_jump_back_s * self.fs))
+        self.blind = cfg.sensing.blind_zone_excess_m / SPEED_OF_LIGHT_MPS * self.fs
+        self.half_window = max(4, round(4.0 * s * self.fs))
+        2 * sig.cfar_reference
+        self.alpha = 0.0  # threshold factor of CA / G / OS (DTB has its own weights)
+        if sig.cfar == "ca":
+            self.alpha = ca_threshold_factor(sig.cfar_pfa, 2 * sig.cfar_reference)
+        elif sig.cfar == "g":
+            self.alpha = ca_threshold_factor(sig.cfar_pfa, sig.n_samples - 2 * sig.cfar_guard - 1)
+        elif sig.cfar == "os":
+            self.alpha = os_threshold_factor(sig.cfar_pfa, 2 * sig.cfar_reference, sig.os_rank)
+        self.range_std_m = sig.range_std_floor_m
+        area = lay.area
+        self._area_m2 = float((area[1] - area[0]) * (area[3] - area[2]))
+        self._pair_of_rx = {int(r): i for i, (_, r) in enumerate(self.pairs.tolist())}
+
+    # ------------------------------------------------------------------------------------------------ episode
+    def new_episode(self, truth: Truth, rngs: RngStreams) -> SignalEpisode:
+        """Geometry, empty-room references (``empty_room_scans`` averaged noisy scans per waveform), clutter state."""
+        sig = self.sig
+        P, L = self.path_delay_s.shape[0], sig.n_multipath
+        W = len(self.library)
+        background = np.einsum("pl,pln->pn", self.path_amplitude, self.path_waveforms)
+        noise = rngs.signal.standard_normal((W, P, sig.n_samples)) / math.sqrt(sig.empty_room_scans)
+        er = np.sqrt(2.0 * self.dp_snr)[..., None] * background[None] + noise
+        env = square_law_envelope(er, self.lpf)
+        toa = direct_path_toa(env, sig.dp_threshold_ratio, self.jump_back)
+        return SignalEpisode(
+            geom=self.model._cached_geometry(truth),
+            truth=truth,
+            rngs=rngs,
+            fluctuation=sig.clutter_fluctuation * rngs.signal.standard_normal((P, L)),
+            reference=env,
+            reference_toa=toa,
+            reference_peak=self._peak_near(env, toa),
+        )
+
+    def _peak_near(self, env: FloatArray, toa: FloatArray) -> FloatArray:
+        """The envelope's peak after the direct-path crossing ``toa``, parabola-refined [samples]."""
+        n = env.shape[-1]
+        k0 = np.clip(np.floor(toa).astype(np.int64), 0, n - 1)
+        idx = np.clip(k0[..., None] + np.arange(self.half_window + 1), 1, n - 2)
+        k = np.take_along_axis(idx, np.argmax(np.take_along_axis(env, idx, axis=-1), axis=-1)[..., None], -1)[..., 0]
+        y = [np.take_along_axis(env, (k + d)[..., None], axis=-1)[..., 0] for d in (-1, 0, 1)]
+        return k + parabolic_peak(*y)
+
+    # --------------------------------------------------------------------------------------------- synthesis
+    def synthesise(self, episode: SignalEpisode, k: int, plan: ScanPlan) -> tuple[FloatArray, IntArray]:
+        """The received scans ``(P_active, N)`` of scan ``k`` and the active pair indices ``(P_active,)``.
+
+        Draws (for every formed pair, whatever the plan): timing jitter, clutter innovations, RCS, echo phases, noise.
+        """
+        sig, rng, geom = self.sig, episode.rngs, episode.geom
+        P, K = self.pairs.shape[0], geom.unit_snr.shape[-1]
+        jitter = sig.scan_jitter_s * self.fs * rng.signal.standard_normal(P)
+        episode.fluctuation = ar1_step(
+            episode.fluctuation,
+            sig.clutter_correlation,
+            sig.clutter_fluctuation,
+            rng.signal.standard_normal(episode.fluctuation.shape),
+        )
+        phase = rng.signal.uniform(0.0, 2.0 * math.pi, (P, K))
+        fluct = rcs_fluctuation(self.model.swerling, (self.n_tx, self.n_rx), rng.rcs, self.model._swerling_w)
+        noise = rng.signal.standard_normal((P, sig.n_samples))
+        active = np.flatnonzero(plan.active_rx[self.pairs[:, 1]])
+        w = plan.waveform[self.pairs[active, 0]]
+        t_i, r_i = self.pairs[active, 0], self.pairs[active, 1]
+        alive = episode.truth.alive[k]
+        pos = episode.truth.states[k][:, [0, 2]]
+        # Background with clutter fluctuation and target shadowing.
+        a, b, c = (leg[active] for leg in self._legs)
+        near = np.zeros(a.shape[:2], dtype=bool)
+        for j in np.flatnonzero(alive):  # targets: a handful
+            near |= (segment_distance(pos[j], a, b) < sig.shadow_radius_m) | (
+                segment_distance(pos[j], b, c) < sig.shadow_radius_m
+            )
+        gain = self.path_amplitude[active] * np.concatenate(
+            [np.ones((active.size, 1)), 1.0 + episode.fluctuation[active]], axis=1
+        )
+        gain = np.where(near, gain * 10.0 ** (-sig.shadow_loss_db / 20.0), gain)
+        scan = np.sqrt(2.0 * self.dp_snr[w, active])[:, None] * np.einsum(
+            "pl,pln->pn", gain, self.path_waveforms[active]
+        )
+        # Echoes: integrated SNR = radar constant x unit SNR x RCS fluctuation; delay relative to the direct path.
+        snr = self.model.radar_constant[w, t_i, r_i][:, None] * geom.unit_snr[k, t_i, r_i] * fluct[t_i, r_i]
+        snr = np.where(alive[None], snr, 0.0)
+        excess = (geom.bistatic_range[k, t_i, r_i] - self.baseline[active][:, None]) / SPEED_OF_LIGHT_MPS
+        fc, s = self._pulse
+        echoes = unit_pulses(
+            self.t, self.sig.direct_path_offset_s + np.where(alive[None], excess, -1.0), phase[active], fc, s, self.fs
+        )
+        scan += np.einsum("pk,pkn->pn", np.sqrt(2.0 * snr), echoes)
+        return fractional_shift(scan, jitter[active]) + noise[active], active
+
+    # ------------------------------------------------------------------------------------------- in-sensor
+    def detect(self, episode: SignalEpisode, k: int, plan: ScanPlan, scans: FloatArray, active: IntArray) -> ScanTrace:
+        """The in-sensor chain on the scans of the active pairs; ToAs as bistatic ranges [m]."""
+        sig = self.sig
+        w = plan.waveform[self.pairs[active, 0]]
+        ref = episode.reference[w, active]
+        ref_toa, ref_peak = episode.reference_toa[w, active], episode.reference_peak[w, active]
+        env = square_law_envelope(scans, self.lpf)
+        toa = direct_path_toa(env, sig.dp_threshold_ratio, self.jump_back)
+        aligned, _ = align_to_reference(env, ref, toa, ref_toa, self.half_window)
+        d = rectified_difference(aligned, ref)
+        if sig.background == "exponential":
+            episode.reference[w, active] = exponential_background(ref, aligned, sig.background_alpha)
+        d[np.arange(d.shape[-1])[None] < (ref_peak + self.blind)[:, None]] = 0.0  # blind zone (seed 000 IV-G)
+        decisions = self._cfar(d)
+        row, toa_s, weight, peak = cluster_detections(
+            decisions, d, sig.cluster_distance_s * self.fs, sig.cluster_min_weight, sig.toa_estimator
+        )
+        ranges = self.baseline[active][row] + SPEED_OF_LIGHT_MPS * (toa_s - ref_peak[row]) / self.fs
+        truth_range = episode.geom.bistatic_range[k, self.pairs[active, 0], self.pairs[active, 1]][row]  # (D, K)
+        err = np.where(episode.truth.alive[k][None], np.abs(truth_range - ranges[:, None]), np.inf)
+        origin = np.where(
+            err.min(axis=1, initial=np.inf) < ORIGIN_TOLERANCE_M, np.argmin(err, axis=1) if err.shape[1] else -1, -1
+        )
+        return ScanTrace(scans, aligned, ref, d, decisions, active, row, toa_s, weight, peak, ranges, origin)
+
+    def _cfar(self, d: FloatArray) -> BoolArray:
+        sig = self.sig
+        if sig.cfar == "dtb":
+            return dtb_cfar(d, sig.dtb_alpha_local, sig.dtb_alpha_global, sig.dtb_buffer, sig.dtb_qmax, sig.dtb_delta)
+        if sig.cfar == "ca":
+            return ca_cfar(d, self.alpha, sig.cfar_reference, sig.cfar_guard)
+        if sig.cfar == "g":
+            return g_cfar(d, self.alpha, sig.cfar_guard)
+        return os_cfar(d, self.alpha, sig.cfar_reference, sig.cfar_guard, sig.os_rank)
+
+    # -------------------------------------------------------------------------------------------- network
+    def sense(self, episode: SignalEpisode, k: int, plan: ScanPlan, time_s: float = 0.0) -> tuple[Detections, ...]:
+        """Scan ``k`` with ``plan``: synthesis, in-sensor chain, network chain -> one record of 2-D positions."""
+        plan.validate(self.n_tx, self.n_rx, len(self.library))
+        scans, active = self.synthesise(episode, k, plan)
+        tr = self.detect(episode, k, plan, scans, active)
+        return (self.localize(tr, plan, time_s),)
+
+    def localize(self, tr: ScanTrace, plan: ScanPlan, time_s: float) -> Detections:
+        """The network chain on one scan's ToAs (seed 000 section V)."""
+        sig, lay = self.sig, self.layout
+        receiver = self.pairs[tr.pairs, 1][tr.toa_row]
+        z, R, used = locate(
+            tr.ranges,
+            tr.weight.astype(float),
+            receiver,
+            lay.rx_pos,
+            lay.tx_pos[0],
+            lay.area,
+            sig.nu,
+            sig.min_tuple_weight,
+            sig.max_residual_m,
+            sig.cluster_2d_distance_m,
+            sig.linkage,
+            self.range_std_m,
+        )
+        origin = np.array(
+            [int(tr.origin[u][0]) if u.size and np.all(tr.origin[u] == tr.origin[u][0]) else -1 for u in used],
+            dtype=np.int64,
+        )
+        peak = np.array([float(tr.peak[u].mean()) for u in used])
+        density = sig.false_position_density_per_m2
+        n = z.shape[0]
+        return Detections(
+            tx=0,
+            rx=-1,
+            waveform=int(plan.waveform[0]),
+            time_s=time_s,
+            z=z,
+            R=R,
+            snr=peak,
+            origin=origin,
+            measurement_names=_POSITION_NAMES,
+            clutter_intensity=np.full(n, density),
+            expected_false_alarms=density * self._area_m2,
+        )
+
+    # ------------------------------------------------------------------------------ the sensor model (parametric)
+    def detection_probability_at(self, *args, **kwargs) -> FloatArray:
+        """The parametric sensor model's per-pair Pd (see :meth:`ParametricSensor.detection_probability_at`)."""
+        return self.model.detection_probability_at(*args, **kwargs)
+
+    def expected_measurements(self, *args, **kwargs):
+        """The parametric sensor model's lookahead inputs (see :meth:`ParametricSensor.expected_measurements`)."""
+        return self.model.expected_measurements(*args, **kwargs)
+
+    def measurement_names(self, rx: int) -> tuple[str, ...]:
+        """Components of the parametric per-pair measurements (the lookahead's model)."""
+        return self.model.measurement_names(rx)
