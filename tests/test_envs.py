@@ -111,8 +111,10 @@ def test_invalid_actions_raise_naming_the_value(bad):
 def test_bad_env_arguments_raise():
     with pytest.raises(ValueError, match="action_kind='x'"):
         gym.make("uwb_env/UrbanWaveform-v0", action_kind="x")
-    with pytest.raises(ValueError, match="fidelity='signal'"):
+    with pytest.raises(ValueError, match="impulse waveforms only"):  # chirps have no signal path yet
         gym.make("uwb_env/UrbanWaveform-v0", fidelity="signal")
+    with pytest.raises(ValueError, match="fidelity='exact'"):
+        gym.make("uwb_env/UrbanWaveform-v0", fidelity="exact")
     with pytest.raises(ValueError, match="subset_size=7"):
         gym.make("uwb_env/IndoorSensorSubset-v0", subset_size=7)
 

@@ -557,7 +557,7 @@ class SignalConfig:
     shadow_radius_m: float = 0.25
     shadow_loss_db: float = 20.0
     empty_room_scans: int = 16
-    envelope_lpf_s: float = 0.12e-9
+    envelope_lpf_s: float = 0.2e-9
     dp_threshold_ratio: float = 0.3
     dp_jump_back_s: float = 3e-9
     background: Literal["empty_room", "exponential"] = "empty_room"

@@ -106,7 +106,7 @@ def draw_scene(ax: Any, cfg: ScenarioConfig, lay: SceneLayout) -> None:
 
 
 def draw_detections(ax: Any, detections: Sequence[Detections], tx_pos: FloatArray, rx_pos: FloatArray) -> None:
-    """One scan's detections: the located point of a range + azimuth detection, else its iso-range ellipse.
+    """One scan's detections: fused positions as points, range + azimuth as located points, else iso-range ellipses.
 
     The bistatic ellipse |p - tx| + |p - rx| = r has foci tx, rx, semi-axes r / 2 and sqrt(r^2 - d^2) / 2 (d the
     baseline); a point uses the azimuth line through rx (``range_azimuth_candidates``, range-rate ignored).
@@ -114,6 +114,9 @@ def draw_detections(ax: Any, detections: Sequence[Detections], tx_pos: FloatArra
     t = np.linspace(0.0, 2.0 * np.pi, 90)
     for det in detections:  # pairs: a small set; every detection of a pair in one array call
         if not len(det):
+            continue
+        if det.measurement_names == ("x", "y"):  # fused positions (signal path)
+            ax.plot(det.z[:, 0], det.z[:, 1], "x", color="tab:orange", ms=4, label="detections")
             continue
         tx, rx = tx_pos[det.tx], rx_pos[det.rx]
         r = det.z[:, 0]

@@ -17,6 +17,8 @@ in sample units (multiply by Ts = 1 / fs for seconds).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
@@ -51,14 +53,16 @@ def direct_path_toa(envelope: FloatArray, threshold_ratio: float, jump_back: int
 def fractional_shift(x: FloatArray, shift: FloatArray) -> FloatArray:
     """``(..., N)`` signals ``x`` delayed by ``shift`` (...,) samples (negative: advanced), y[k] = x[k - shift].
 
-    Band-limited (frequency-domain) interpolation; the scan is zero-padded to twice its length first so the
-    circular wrap cannot bring the end of the scan round to its start.
+    Band-limited (frequency-domain) interpolation; the scan is zero-padded by more than the largest shift (to a
+    power of two) so the circular wrap cannot bring the end of the scan round to its start.
     """
     n = x.shape[-1]
-    spec = np.fft.rfft(x, 2 * n, axis=-1)
-    f = np.fft.rfftfreq(2 * n)
-    spec *= np.exp(-2j * np.pi * f * np.asarray(shift, dtype=float)[..., None])
-    return np.fft.irfft(spec, 2 * n, axis=-1)[..., :n]
+    shift = np.asarray(shift, dtype=float)
+    m = 1 << (math.ceil(math.log2(n + 2.0 * float(np.max(np.abs(shift), initial=0.0)) + 16.0)))
+    spec = np.fft.rfft(x, m, axis=-1)
+    phase = (-2.0 * np.pi / m) * np.arange(m // 2 + 1) * shift[..., None]
+    spec *= np.cos(phase) + 1j * np.sin(phase)
+    return np.fft.irfft(spec, m, axis=-1)[..., :n]
 
 
 def parabolic_peak(y_minus: FloatArray, y0: FloatArray, y_plus: FloatArray) -> FloatArray:

@@ -39,7 +39,7 @@ from uwb_env.typing import FloatArray
 from uwb_env.units import dbm_to_watts
 
 ACTION_KINDS = ("waveform", "subset", "joint")
-FIDELITIES = ("parametric",)
+FIDELITIES = ("parametric", "signal")
 OBS_BOUND = 10.0
 """Observation bounds: every feature is O(1) on the scenario (tracks live inside the area, deleted beyond 50 m std);
 a value outside raises rather than being clipped."""
@@ -68,7 +68,9 @@ class UWBSchedulingEnv(gym.Env):
     Args:
         scenario: a registered scenario name or a ``ScenarioConfig``; overrides: dotted config overrides.
         action_kind, subset_size, fixed_waveform: the plans (``enumerate_plans``).
-        fidelity: ``"parametric"`` (the signal path is a later issue).
+        fidelity: ``"parametric"`` or ``"signal"`` (synthesised scans through seed 000's chains; impulse-radio
+            scenarios with one transmitter); None keeps the scenario's ``sensing.fidelity``. With ``"signal"`` the
+            lookahead still uses the parametric sensor model (per-pair Pd and range covariance).
         n_slots: track slots in the observation; observation: ``"box"`` or ``"dict"``;
         include_lookahead: append the lookahead cost of every action to the observation.
         missed_target_penalty_m2, cover_gate_m, energy_cost_per_j: reward terms (module docstring).
@@ -83,7 +85,7 @@ class UWBSchedulingEnv(gym.Env):
         action_kind: str = "waveform",
         subset_size: int = 3,
         fixed_waveform: int = 0,
-        fidelity: str = "parametric",
+        fidelity: str | None = None,
         n_slots: int = 8,
         observation: str = "box",
         include_lookahead: bool = False,
@@ -93,7 +95,7 @@ class UWBSchedulingEnv(gym.Env):
         render_mode: str | None = None,
         **overrides: Any,
     ) -> None:
-        if fidelity not in FIDELITIES:
+        if fidelity is not None and fidelity not in FIDELITIES:
             raise ValueError(f"fidelity={fidelity!r}: must be one of {FIDELITIES}")
         if observation not in ("box", "dict"):
             raise ValueError(f"observation={observation!r}: must be 'box' or 'dict'")
@@ -109,6 +111,8 @@ class UWBSchedulingEnv(gym.Env):
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name}={value}: must be finite and >= 0")
         cfg = scenarios.get(scenario) if isinstance(scenario, str) else scenario
+        if fidelity is not None:
+            overrides = {"sensing.fidelity": fidelity, **overrides}
         self.cfg = apply_overrides(cfg, overrides) if overrides else cfg
         self.sim = Simulator(self.cfg)
         sensor = self.sim.sensor

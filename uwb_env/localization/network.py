@@ -12,6 +12,7 @@ r"""Network processing of seed 000 section V: per-receiver ToAs -> position meas
 
 from __future__ import annotations
 
+import functools
 import itertools
 from dataclasses import dataclass
 
@@ -47,18 +48,19 @@ def tuple_measurements(
     """
     if nu < 3:
         raise ValueError(f"nu = {nu}: the closed-form intersection needs nu >= 3 receivers")
-    idx = np.arange(ranges.shape[0])
-    per_rx = [idx[receiver == r] for r in np.unique(receiver)]
-    blocks = []
-    for combo in itertools.combinations(per_rx, nu):  # receiver subsets: at most C(R, nu), a small set
-        grid = np.stack(np.meshgrid(*combo, indexing="ij"), axis=-1).reshape(-1, nu)
-        blocks.append(grid)
-    if not blocks:
-        z = np.zeros((0, 2))
-        return TupleMeasurements(z, np.zeros(0), np.zeros(0), np.zeros((0, nu), np.int64))
-    members = np.concatenate(blocks)
+    members = _combinations(ranges.shape[0], nu)
+    rec = np.sort(receiver[members], axis=1)
+    members = members[np.all(rec[:, 1:] != rec[:, :-1], axis=1)]  # one detection per receiver
     pos, res = ls_ellipse_intersection(ranges[members], rx_pos[receiver[members]], tx_pos)
     return TupleMeasurements(pos, res, weights[members].sum(axis=1), members)
+
+
+@functools.lru_cache(maxsize=256)
+def _combinations(n: int, k: int) -> IntArray:
+    """``(C(n, k), k)`` index tuples of ``itertools.combinations(range(n), k)`` (cached, read-only)."""
+    out = np.array(list(itertools.combinations(range(n), k)), dtype=np.int64).reshape(-1, k)
+    out.flags.writeable = False
+    return out
 
 
 def geometry_covariance(p: FloatArray, tx: FloatArray, rx: FloatArray, range_var: float) -> FloatArray:

@@ -297,28 +297,62 @@ class SignalSensor:
     # ------------------------------------------------------------------------------------------- in-sensor
     def detect(self, episode: SignalEpisode, k: int, plan: ScanPlan, scans: FloatArray, active: IntArray) -> ScanTrace:
         """The in-sensor chain on the scans of the active pairs; ToAs as bistatic ranges [m]."""
-        sig = self.sig
         w = plan.waveform[self.pairs[active, 0]]
         ref = episode.reference[w, active]
-        ref_toa, ref_peak = episode.reference_toa[w, active], episode.reference_peak[w, active]
-        env = square_law_envelope(scans, self.lpf)
-        toa = direct_path_toa(env, sig.dp_threshold_ratio, self.jump_back)
-        aligned, _ = align_to_reference(env, ref, toa, ref_toa, self.half_window)
-        d = rectified_difference(aligned, ref)
-        if sig.background == "exponential":
-            episode.reference[w, active] = exponential_background(ref, aligned, sig.background_alpha)
-        d[np.arange(d.shape[-1])[None] < (ref_peak + self.blind)[:, None]] = 0.0  # blind zone (seed 000 IV-G)
-        decisions = self._cfar(d)
-        row, toa_s, weight, peak = cluster_detections(
-            decisions, d, sig.cluster_distance_s * self.fs, sig.cluster_min_weight, sig.toa_estimator
+        aligned, d, decisions, (row, toa_s, weight, peak), ranges = self.in_sensor(
+            scans, ref, episode.reference_toa[w, active], episode.reference_peak[w, active], active
         )
-        ranges = self.baseline[active][row] + SPEED_OF_LIGHT_MPS * (toa_s - ref_peak[row]) / self.fs
+        if self.sig.background == "exponential":
+            episode.reference[w, active] = exponential_background(ref, aligned, self.sig.background_alpha)
         truth_range = episode.geom.bistatic_range[k, self.pairs[active, 0], self.pairs[active, 1]][row]  # (D, K)
         err = np.where(episode.truth.alive[k][None], np.abs(truth_range - ranges[:, None]), np.inf)
         origin = np.where(
             err.min(axis=1, initial=np.inf) < ORIGIN_TOLERANCE_M, np.argmin(err, axis=1) if err.shape[1] else -1, -1
         )
         return ScanTrace(scans, aligned, ref, d, decisions, active, row, toa_s, weight, peak, ranges, origin)
+
+    def in_sensor(
+        self, scans: FloatArray, ref: FloatArray, ref_toa: FloatArray, ref_peak: FloatArray, pair: IntArray
+    ) -> tuple[FloatArray, FloatArray, BoolArray, tuple, FloatArray]:
+        """Seed 000's in-sensor chain on scans ``(B, N)`` of pairs ``pair`` (B,) against references ``(B, N)``.
+
+        Returns the aligned envelopes, the rectified difference (blind zone zeroed), the CFAR decisions, the
+        clusters ``(row, toa [samples], weight, peak)`` and their bistatic ranges [m].
+        """
+        sig = self.sig
+        env = square_law_envelope(scans, self.lpf)
+        toa = direct_path_toa(env, sig.dp_threshold_ratio, self.jump_back)
+        aligned, _ = align_to_reference(env, ref, toa, ref_toa, self.half_window)
+        d = rectified_difference(aligned, ref)
+        d[np.arange(d.shape[-1])[None] < (ref_peak + self.blind)[:, None]] = 0.0  # blind zone (seed 000 IV-G)
+        decisions = self._cfar(d)
+        clusters = cluster_detections(
+            decisions, d, sig.cluster_distance_s * self.fs, sig.cluster_min_weight, sig.toa_estimator
+        )
+        row, toa_s = clusters[0], clusters[1]
+        ranges = self.baseline[pair][row] + SPEED_OF_LIGHT_MPS * (toa_s - ref_peak[row]) / self.fs
+        return aligned, d, decisions, clusters, ranges
+
+    def controlled_scans(
+        self, rng: np.random.Generator, pair: int, waveform: int, excess_range_m: float, snr: FloatArray
+    ) -> FloatArray:
+        """Calibration input: scans ``(B, N)`` of one pair with a single echo of integrated SNR ``snr`` (B,).
+
+        The echo lies ``excess_range_m`` beyond the baseline, over the room's background; fluctuation, jitter, echo
+        phase and noise are drawn from ``rng``.
+        """
+        sig = self.sig
+        B = np.asarray(snr).shape[0]
+        L = sig.n_multipath
+        fluct = sig.clutter_fluctuation * rng.standard_normal((B, L))
+        gain = self.path_amplitude[pair] * np.concatenate([np.ones((B, 1)), 1.0 + fluct], axis=1)
+        scan = math.sqrt(2.0 * self.dp_snr[waveform, pair]) * gain @ self.path_waveforms[pair]
+        fc, s = self._pulse
+        delay = sig.direct_path_offset_s + excess_range_m / SPEED_OF_LIGHT_MPS
+        echo = unit_pulses(self.t, np.full(B, delay), rng.uniform(0.0, 2.0 * math.pi, B), fc, s, self.fs)
+        scan += np.sqrt(2.0 * np.asarray(snr, dtype=float))[:, None] * echo
+        jitter = sig.scan_jitter_s * self.fs * rng.standard_normal(B)
+        return fractional_shift(scan, jitter) + rng.standard_normal(scan.shape)
 
     def _cfar(self, d: FloatArray) -> BoolArray:
         sig = self.sig

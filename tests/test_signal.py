@@ -1,0 +1,124 @@
+"""Signal-level fidelity end to end (issue 5): determinism, common random numbers, accuracy, ToA spread vs CRLB."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+from uwb_env import scenarios
+from uwb_env.rng import RngStreams
+from uwb_env.scene import sample_truth
+from uwb_env.sensing import ScanPlan
+from uwb_env.sensing.signal import SignalSensor
+from uwb_env.sim import Simulator, run_episode
+from uwb_env.waveforms.impulse import toa_crlb_variance
+
+CFG = scenarios.get("indoor-rsn", **{"sensing.fidelity": "signal"})
+
+
+@pytest.fixture(scope="module")
+def sensor() -> SignalSensor:
+    return SignalSensor(CFG)
+
+
+def _episode(sensor: SignalSensor, seed: int):
+    rngs = RngStreams.from_seed(seed)
+    return sensor.new_episode(sample_truth(CFG, rngs.truth, sensor.layout), rngs)
+
+
+def test_same_seed_same_detections_and_streams_do_not_depend_on_the_plan(sensor):
+    all_rx = ScanPlan.all_listening(0, 1, 6)
+    some = ScanPlan(np.array([0]), np.array([True, False, True, False, True, False]))
+    a, b = _episode(sensor, 4), _episode(sensor, 4)
+    for k in range(1, 8):
+        da, db = sensor.sense(a, k, all_rx)[0], sensor.sense(b, k, all_rx)[0]
+        np.testing.assert_array_equal(da.z, db.z)
+        np.testing.assert_array_equal(da.R, db.R)
+    # the receivers both plans listen to get the same samples whatever the others do
+    x, y = _episode(sensor, 9), _episode(sensor, 9)
+    for k in range(1, 5):
+        s_all, p_all = sensor.synthesise(x, k, all_rx)
+        s_some, p_some = sensor.synthesise(y, k, some)
+        np.testing.assert_array_equal(s_all[np.isin(p_all, p_some)], s_some)
+
+
+def test_localizations_are_near_the_walking_person(sensor):
+    ep = _episode(sensor, 2)
+    plan = ScanPlan.all_listening(0, 1, 6)
+    hits = 0
+    for k in range(1, 62):
+        det = sensor.sense(ep, k, plan)[0]
+        truth = ep.truth.states[k, 0, [0, 2]]
+        err = np.linalg.norm(det.z - truth, axis=1) if len(det) else np.array([np.inf])
+        hits += err.min() < 0.1
+        assert det.measurement_names == ("x", "y") and det.rx == -1
+        assert np.all(np.linalg.eigvalsh(det.R) > 0)
+        # origin labels (evaluation only) agree with the geometry
+        assert np.all(np.linalg.norm(det.z[det.origin == 0] - truth, axis=1) < 0.3)
+    assert hits >= 55  # measured: 60 of 61 (the rest: the person in several blind zones at once)
+
+
+def test_tracked_rmse_of_three_runs_is_far_below_the_seeds_real_data_figure():
+    sim = Simulator(CFG)
+    plan = ScanPlan.all_listening(0, 1, 6)
+    rmse = [run_episode(sim, seed, lambda k: plan, 2.0).rmse() for seed in range(3)]
+    assert max(rmse) < 0.1  # measured 0.018-0.024 m; seed 000 reports 0.36 m on real data
+
+
+@pytest.mark.slow
+def test_median_rmse_of_twenty_runs_is_at_most_the_seeds_036_m():
+    sim = Simulator(CFG)
+    plan = ScanPlan.all_listening(0, 1, 6)
+    rmse = [run_episode(sim, seed, lambda k: plan, 2.0).rmse() for seed in range(20)]
+    assert np.median(rmse) <= 0.36
+
+
+def test_high_snr_toa_spread_is_within_30_percent_of_the_crlb(sensor):
+    """400 scans of one pair with an echo at 50 dB: the std of the range error vs c sqrt(CRLB).
+
+    The std of a sample of 400 has a relative sampling error of 1 / sqrt(2 x 399) = 3.5 %; measured ratio 1.06.
+    """
+    ep = _episode(sensor, 0)
+    rng = np.random.default_rng(5)
+    B, p, w, excess = 400, 0, 0, 3.0
+    snr = 10.0**5.0
+    scans = sensor.controlled_scans(rng, p, w, excess, np.full(B, snr))
+    ref = np.broadcast_to(ep.reference[w, p], scans.shape)
+    *_, (row, _, _, _), ranges = sensor.in_sensor(
+        scans, ref, np.full(B, ep.reference_toa[w, p]), np.full(B, ep.reference_peak[w, p]), np.full(B, p)
+    )
+    err = ranges - (sensor.baseline[p] + excess)
+    hit = np.abs(err) < 0.3
+    assert np.unique(row[hit]).size == B  # detected in every scan
+    crlb = 299_792_458.0 * math.sqrt(toa_crlb_variance(sensor.library.waveforms[w].rms_bandwidth_hz, snr))
+    assert 0.7 < err[hit].std() / crlb < 1.3
+    # bias: the 3-point parabola on the sampled envelope peaks of the echo and the direct path (at different
+    # sub-sample offsets) is biased by a small fraction of a sample (1 sample = 1.8 mm); measured 0.6 mm
+    assert abs(err[hit].mean()) < 0.1 * 299_792_458.0 / CFG.sensing.signal.sample_rate_hz
+
+
+def test_signal_fidelity_refuses_scenarios_it_cannot_synthesise():
+    with pytest.raises(ValueError, match="impulse waveforms only"):
+        SignalSensor(scenarios.get("urban-intersection", **{"sensing.fidelity": "signal"}))
+    with pytest.raises(ValueError, match="one transmitter"):
+        SignalSensor(scenarios.get("indoor-monostatic", **{"sensing.fidelity": "signal"}))
+    with pytest.raises(ValueError, match=r"SignalConfig\.cfar"):
+        scenarios.get("indoor-rsn", **{"sensing.signal.cfar": "xx"})
+
+
+@pytest.mark.parametrize("env_id", ["uwb_env/IndoorSensorSubset-v0", "uwb_env/IndoorJoint-v0"])
+def test_environments_run_on_the_signal_path(env_id):
+    env = gym.make(env_id, fidelity="signal")
+    check_env(env.unwrapped, skip_render_check=True)
+    obs, _ = env.reset(seed=1)
+    rewards = []
+    for _ in range(15):
+        obs, r, *_ = env.step(int(np.argmin(env.unwrapped.lookahead_costs())))
+        assert np.all(np.isfinite(obs)) and math.isfinite(r)
+        rewards.append(r)
+    assert env.unwrapped.cfg.sensing.fidelity == "signal"
+    assert rewards[-1] > -10.0  # the person is held with a small covariance by scan 15
