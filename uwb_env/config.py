@@ -635,7 +635,12 @@ class SensingConfig:
     ``max_range_m``: a target is covered by a pair only if both legs are shorter. ``blind_zone_excess_m``:
     detections whose bistatic range exceeds the baseline by less than this are discarded (seed 000 section IV-G;
     for a monostatic radar this is twice seed 002's blind range d*). ``measure_doa`` adds the azimuth measured by
-    array receivers. ``signal`` holds the knobs of the signal-level fidelity (:class:`SignalConfig`).
+    array receivers. ``clutter_residue_ratio`` (kappa) is the power of the residue that clutter removal leaves, per
+    unit of the pair's direct-path SNR: the parametric detector sees SCNR = SNR / (1 + kappa SNR_dp) (clutter-limited
+    detection; the measurement covariance keeps the thermal SNR because the residue lies at other delays); 0 is a
+    noise-limited detector, impulse-radio scenarios use the value calibrated on the signal path
+    (``scripts/calibrate_parametric.py``). ``signal`` holds the knobs of the signal-level fidelity
+    (:class:`SignalConfig`).
     """
 
     fidelity: Literal["parametric", "signal"] = "parametric"
@@ -644,6 +649,7 @@ class SensingConfig:
     max_range_m: float = 300.0
     blind_zone_excess_m: float = 0.0
     measure_doa: bool = False
+    clutter_residue_ratio: float = 0.0
     clutter: ClutterConfig = field(default_factory=ClutterConfig)
     signal: SignalConfig = field(default_factory=SignalConfig)
 
@@ -653,6 +659,7 @@ class SensingConfig:
         _in_range("SensingConfig", "false_alarm_probability", self.false_alarm_probability, 0.0, 0.1, closed="(]")
         _positive("SensingConfig", "max_range_m", self.max_range_m)
         _non_negative("SensingConfig", "blind_zone_excess_m", self.blind_zone_excess_m)
+        _non_negative("SensingConfig", "clutter_residue_ratio", self.clutter_residue_ratio)
         if not isinstance(self.measure_doa, bool):
             _fail("SensingConfig", "measure_doa", self.measure_doa, "a bool")
 

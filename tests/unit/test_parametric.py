@@ -295,3 +295,38 @@ def test_each_transmitter_measures_with_its_own_waveform():
             same = next(x for x in ref[w] if x.tx == d.tx and x.rx == d.rx)
             np.testing.assert_array_equal(d.z, same.z)
             np.testing.assert_array_equal(d.origin, same.origin)
+
+
+def test_clutter_residue_ratio_turns_snr_into_scnr_for_detection_only():
+    """kappa > 0: Pd at SCNR = SNR / (1 + kappa SNR_dp), SNR_dp the direct path's; the covariance keeps the SNR."""
+    from uwb_env import scenarios
+    from uwb_env.channel.radar_equation import direct_path_snr
+    from uwb_env.sensing import ParametricSensor
+    from uwb_env.sensing.pd import detection_probability
+    from uwb_env.units import dbm_to_watts
+
+    base = scenarios.get("indoor-rsn", **{"sensing.clutter_residue_ratio": 0.0})
+    kappa = 1e-3
+    cfg = scenarios.get("indoor-rsn", **{"sensing.clutter_residue_ratio": kappa})
+    s0, s1 = ParametricSensor(base), ParametricSensor(cfg)
+    pos = np.array([[2.0, 2.0], [9.0, 1.5]])  # both covered by the pair (tx, rx3)
+    wf = s1.library.waveforms[1]
+    tx, rx = cfg.transmitters[0], cfg.receivers[2]
+    dp = direct_path_snr(
+        wf.scan_energy_j(dbm_to_watts(tx.power_dbm)),
+        wf.center_freq_hz,
+        wf.rms_bandwidth_hz,
+        tx.antenna_gain_db,
+        rx.antenna_gain_db,
+        rx.noise_figure_db,
+        float(s1.layout.baselines[0, 2]),
+        cfg.channel,
+    )
+    pd0, R0 = s0.expected_measurements(0, 2, pos, np.array([1]), 1.0, 0)
+    pd1, R1 = s1.expected_measurements(0, 2, pos, np.array([1]), 1.0, 0)
+    # recover the SNR from the noise-limited covariance (R = c^2 / (8 pi^2 beta^2 SNR)) and apply the SCNR by hand
+    snr = 299_792_458.0**2 / (8 * np.pi**2 * wf.rms_bandwidth_hz**2 * R0[0, :, 0, 0])
+    expected = detection_probability(snr / (1.0 + kappa * dp), cfg.sensing.false_alarm_probability, 0)
+    np.testing.assert_allclose(pd1[0], expected, rtol=1e-9)
+    np.testing.assert_allclose(R1, R0)  # the covariance is the thermal SNR's
+    assert np.all(pd0 > 0) and np.all(pd1 < pd0)

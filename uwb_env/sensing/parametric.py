@@ -40,7 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from uwb_env.channel.coverage import blind_zone, in_field_of_view
-from uwb_env.channel.radar_equation import bistatic_radar_constant, leg_lengths
+from uwb_env.channel.radar_equation import bistatic_radar_constant, direct_path_snr, leg_lengths
 from uwb_env.channel.rcs import rcs_fluctuation, swerling_weights
 from uwb_env.channel.walls import pair_obstruction
 from uwb_env.config import ScenarioConfig
@@ -161,6 +161,10 @@ class ParametricSensor:
                 for wf in self.library.waveforms
             ]
         )
+        self.direct_path_snr = self._direct_path_snr()  # (W, T, R)
+        kappa = cfg.sensing.clutter_residue_ratio
+        self._residue = kappa > 0.0
+        self.detection_gain = 1.0 / (1.0 + kappa * self.direct_path_snr)  # (W, T, R) SCNR / SNR
         self.pairs = np.array(cfg.radar_pairs, dtype=np.int64).reshape(-1, 2)  # (P, 2) formed (tx, rx)
         self.pair_mask = np.zeros((self.n_tx, self.n_rx), dtype=bool)
         self.pair_mask[self.pairs[:, 0], self.pairs[:, 1]] = True
@@ -205,6 +209,36 @@ class ParametricSensor:
         self._unit_chol_stack = np.stack(self._unit_chol) if self._all_unit_chol else None
         self._unit_cov_stack = np.stack(self._unit_cov) if self._all_unit_chol else None
         self._wavelengths = np.array([w.wavelength_m for w in self.library.waveforms])
+
+    def _direct_path_snr(self) -> FloatArray:
+        """``(W, T, R)`` integrated SNR of the direct path of each waveform and node pair.
+
+        Over its baseline (at least the reference distance d0). With ``clutter_residue_ratio`` kappa the detector
+        sees SCNR = SNR / (1 + kappa SNR_dp) (``SensingConfig``).
+        """
+        cfg = self.cfg
+        d = np.maximum(self.layout.baselines, cfg.channel.reference_distance_m)
+        return np.array(
+            [
+                [
+                    [
+                        direct_path_snr(
+                            wf.scan_energy_j(dbm_to_watts(tx.power_dbm)),
+                            wf.center_freq_hz,
+                            wf.rms_bandwidth_hz,
+                            tx.antenna_gain_db,
+                            rx.antenna_gain_db,
+                            rx.noise_figure_db,
+                            d[t, r],
+                            cfg.channel,
+                        )
+                        for r, rx in enumerate(cfg.receivers)
+                    ]
+                    for t, tx in enumerate(cfg.transmitters)
+                ]
+                for wf in self.library.waveforms
+            ]
+        )
 
     # ------------------------------------------------------------------------------------------------ geometry
     def _links(self, tx: slice, rx: slice, pos: FloatArray) -> tuple[FloatArray, ...]:
@@ -457,7 +491,8 @@ class ParametricSensor:
 
         clutter_azimuth: dict[float, tuple[FloatArray, FloatArray]] = {}  # false alarms: per carrier, not waveform
         snr_all = self.radar_constant[:, None, :, :, None] * fading[None]  # (W, S, T, R, K)
-        target_hit = np.abs(np.sqrt(snr_all) + offset[None]) > level[None]
+        scnr = snr_all * self.detection_gain[:, None, :, :, None] if self._residue else snr_all
+        target_hit = np.abs(np.sqrt(scnr) + offset[None]) > level[None]
         if self._all_unit_chol:  # every waveform in one batch (per-row waveform index)
             n_t = e_t.shape[0]
             rows = np.tile(template.reshape(-1, col["n"]), (W, 1))
@@ -711,7 +746,8 @@ class ParametricSensor:
         ok = covered[0, 0]
         k = self.radar_constant[waveforms, tx, rx][:, None]
         snr = np.where(ok, k * (rcs_m2 * unit_snr[0, 0]), 0.0)
-        pd = np.where(ok, detection_probability(snr, self.cfg.sensing.false_alarm_probability, swerling), 0.0)
+        scnr = snr * self.detection_gain[waveforms, tx, rx][:, None] if self._residue else snr
+        pd = np.where(ok, detection_probability(scnr, self.cfg.sensing.false_alarm_probability, swerling), 0.0)
         return az[0], ok, snr, pd
 
     def detection_probability_at(

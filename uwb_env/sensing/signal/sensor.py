@@ -23,7 +23,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from uwb_env.channel.radar_equation import direct_path_snr
 from uwb_env.channel.rcs import rcs_fluctuation
 from uwb_env.config import ScenarioConfig
 from uwb_env.constants import SPEED_OF_LIGHT_MPS
@@ -134,25 +133,7 @@ class SignalSensor:
                 f"waveforms of {cfg.name!r}: the signal path needs one pulse shape (centre frequency and bandwidth) "
                 "for the whole library; the waveforms may differ in pulse integration (n_pulses) only"
             )
-        # Direct-path SNR per (waveform, pair).
-        self.dp_snr = np.array(
-            [
-                [
-                    direct_path_snr(
-                        w.scan_energy_j(10.0 ** (cfg.transmitters[t].power_dbm / 10.0) * 1e-3),
-                        w.center_freq_hz,
-                        w.rms_bandwidth_hz,
-                        cfg.transmitters[t].antenna_gain_db,
-                        cfg.receivers[r].antenna_gain_db,
-                        cfg.receivers[r].noise_figure_db,
-                        self.baseline[i],
-                        cfg.channel,
-                    )
-                    for i, (t, r) in enumerate(self.pairs.tolist())
-                ]
-                for w in self.library.waveforms
-            ]
-        )
+        self.dp_snr = self.model.direct_path_snr[:, self.pairs[:, 0], self.pairs[:, 1]]  # (W, P)
         # The room: background paths of every pair, drawn once from background_seed (the same in every episode).
         room = np.random.default_rng(sig.background_seed)
         L = sig.n_multipath
