@@ -51,17 +51,20 @@ class Simulator:
         tc = self.tracker_cfg
         plan = self._plan
         assert plan is not None  # set by step() before the tracker runs
-        w = int(plan.waveform[tx])
         if rx >= 0:
+            w = int(plan.waveform[tx])
             pd = self.sensor.detection_probability_at(tx, rx, positions, w, tc.assumed_rcs_m2, tc.assumed_swerling)
         else:
-            per_rx = np.array(
+            per_pair = np.array(
                 [
-                    self.sensor.detection_probability_at(tx, r, positions, w, tc.assumed_rcs_m2, tc.assumed_swerling)
-                    for r in np.flatnonzero(plan.active_rx)  # the listening receivers: a handful
+                    self.sensor.detection_probability_at(
+                        t, r, positions, int(plan.waveform[t]), tc.assumed_rcs_m2, tc.assumed_swerling
+                    )
+                    for t, r in self.sensor.pairs.tolist()  # formed pairs: a handful
+                    if plan.active_rx[r]
                 ]
             )
-            pd = at_least(per_rx, self.cfg.sensing.signal.nu)
+            pd = at_least(per_pair, self.cfg.sensing.signal.nu)
         return np.minimum(pd, tc.max_detection_probability)
 
     def reset(self, seed: int | np.random.SeedSequence | None) -> None:

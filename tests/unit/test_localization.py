@@ -50,11 +50,11 @@ def test_geometry_covariance_is_the_crlb_of_the_ranges():
     p = np.array([0.0, 0.0])
     tx = np.array([0.0, -1e6])  # far transmitter: u_t = (0, 1)
     rx = np.array([[-1e6, 0.0], [0.0, 1e6]])  # u_r = (1, 0) and (0, -1) -> rows (1, 1) and (0, 0)
-    cov = geometry_covariance(p, tx, rx[:1], 0.01)
+    cov = geometry_covariance(p, tx[None], rx[:1], 0.01)
     # one receiver: one row (1, 1): information 100 * [[1, 1], [1, 1]] is singular -> huge but finite
     assert np.isfinite(cov).all() and cov.max() > 1e6
     rx = np.array([[-1e6, 0.0], [1e6, 0.0]])  # rows (1, 1) and (-1, 1)
-    cov = geometry_covariance(p, tx, rx, 0.01)
+    cov = geometry_covariance(p, np.stack([tx, tx]), rx, 0.01)
     np.testing.assert_allclose(cov, 0.01 * np.linalg.inv(np.array([[2.0, 0.0], [0.0, 2.0]])), rtol=1e-6)
 
 
@@ -81,8 +81,20 @@ def test_locate_keeps_the_target_and_drops_light_and_inconsistent_tuples():
     ranges = [*_ranges(p, RX[rxs]).tolist(), 9.0, 12.0]  # + two clutter detections on receivers 0 and 2
     receiver = np.array([*rxs, 0, 2])
     weights = np.array([12.0, 12, 12, 12, 5, 12])
+    tx = np.broadcast_to(TX, (receiver.size, 2))
     z, cov, used = locate(
-        np.array(ranges), weights, receiver, RX, TX, np.array([0, 11.5, 0, 6]), 3, 30.0, 0.15, 0.5, "centroid", 0.05
+        np.array(ranges),
+        weights,
+        receiver,
+        tx,
+        RX[receiver],
+        np.array([0, 11.5, 0, 6]),
+        3,
+        30.0,
+        0.15,
+        0.5,
+        "centroid",
+        0.05,
     )
     assert z.shape == (1, 2)
     np.testing.assert_allclose(z[0], p, atol=1e-9)
@@ -99,3 +111,29 @@ def test_at_least_matches_enumeration():
             if sum(hits) >= n:
                 brute += np.prod([pd[i] if h else 1 - pd[i] for i, h in enumerate(hits)], axis=0)
         np.testing.assert_allclose(at_least(pd, n), brute, rtol=1e-12)
+
+
+def test_monostatic_tuples_are_solved_by_gauss_newton_with_the_same_residual():
+    """Radars at different places (tx = rx): no common transmitter, so Gauss-Newton; exact without noise."""
+    radars = np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 8.0], [10.0, 8.0]])
+    p = np.array([3.0, 5.0])
+    q = 2.0 * np.linalg.norm(p - radars, axis=1)
+    z, cov, used = locate(
+        np.r_[q, 7.0],
+        np.full(5, 12.0),
+        np.r_[np.arange(4), 0],
+        radars[np.r_[np.arange(4), 0]],
+        radars[np.r_[np.arange(4), 0]],
+        np.array([0, 10, 0, 8]),
+        3,
+        30.0,
+        0.15,
+        0.5,
+        "centroid",
+        0.05,
+    )
+    np.testing.assert_allclose(z, [p], atol=1e-6)
+    assert sorted(used[0].tolist()) == [0, 1, 2, 3]
+    # monostatic gradient rows are 2 u: covariance (sum 4 u u^T)^-1 sigma^2
+    u = (p - radars) / np.linalg.norm(p - radars, axis=1)[:, None]
+    np.testing.assert_allclose(cov[0], 0.0025 * np.linalg.inv(4 * u.T @ u), rtol=1e-6)

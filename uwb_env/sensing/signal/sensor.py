@@ -114,11 +114,6 @@ class SignalSensor:
                 f"sensing.fidelity = 'signal' in {cfg.name!r}: the signal path synthesises impulse waveforms only "
                 f"(library: {[w.name for w in self.library.waveforms]})"
             )
-        if self.n_tx != 1:
-            raise ValueError(
-                f"sensing.fidelity = 'signal' in {cfg.name!r}: the network chain (seed 000) intersects ellipses "
-                f"sharing one transmitter; the scenario has {self.n_tx}"
-            )
         lay = self.layout
         self.pairs = self.model.pairs  # (P, 2)
         P = self.pairs.shape[0]
@@ -356,13 +351,13 @@ class SignalSensor:
     def localize(self, tr: ScanTrace, plan: ScanPlan, time_s: float) -> Detections:
         """The network chain on one scan's ToAs (seed 000 section V)."""
         sig, lay = self.sig, self.layout
-        receiver = self.pairs[tr.pairs, 1][tr.toa_row]
+        pair = tr.pairs[tr.toa_row]
         z, R, used = locate(
             tr.ranges,
             tr.weight.astype(float),
-            receiver,
-            lay.rx_pos,
-            lay.tx_pos[0],
+            pair,
+            lay.tx_pos[self.pairs[pair, 0]],
+            lay.rx_pos[self.pairs[pair, 1]],
             lay.area,
             sig.nu,
             sig.min_tuple_weight,

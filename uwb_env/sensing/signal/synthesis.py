@@ -58,7 +58,7 @@ def points_on_ellipse(tx: FloatArray, rx: FloatArray, major_m: FloatArray, angle
     focal = 0.5 * float(np.linalg.norm(rx - tx))
     a = 0.5 * np.asarray(major_m)
     b = np.sqrt(np.maximum(a * a - focal * focal, 0.0))
-    axis = (rx - tx) / max(2.0 * focal, 1e-12)
+    axis = (rx - tx) / (2.0 * focal) if focal > 0.0 else np.array([1.0, 0.0])  # monostatic: a circle
     normal = np.array([-axis[1], axis[0]])
     return centre + (a * np.cos(angle))[..., None] * axis + (b * np.sin(angle))[..., None] * normal
 
