@@ -11,11 +11,12 @@ in-sensor chain runs on them and we measure
 * the false detections per scan and pair (every other cluster) and
 * the spread (std) of the range error against c sqrt(CRLB) of the waveform at that SNR.
 
-The parametric detector with the clutter residue of ``SensingConfig.clutter_residue_ratio`` (kappa),
-Pd = Pd_SW0(SNR / (1 + kappa SNR_dp), Pfa), is fitted to these points: kappa and the detector's effective Pfa
-minimise the largest Pd difference over every waveform and SNR (pairs pooled, the model averaged over them; grid
-search, the objective being a maximum). The report gives both, the largest |Pd difference| with the binomial std of
-the measured points, and the ToA-spread ratio. The scenario's defaults (``sensing.clutter_residue_ratio`` and
+The parametric detector with the clutter residue of ``SensingConfig.clutter_residue_ratio`` (kappa) and
+``clutter_residue_looks`` (m), Pd = E_X[Pd_SW0(SNR / (1 + kappa SNR_dp X), Pfa)], X ~ Gamma(m, 1/m), is fitted to
+these points: kappa, m and the detector's effective Pfa minimise the largest Pd difference over every waveform and
+SNR (pairs pooled, the model averaged over them; grid search, the objective being a maximum). The report gives
+them, the largest |Pd difference| with the binomial std of the measured points, and the ToA-spread ratio. The
+scenario's defaults (``sensing.clutter_residue_ratio``, ``clutter_residue_looks`` and
 ``sensing.false_alarm_probability`` of ``uwb_env/scenarios/indoor_rsn.py``) are the values this script fits.
 Writes calibration.md, pd.png and toa_spread.png.
 """
@@ -32,6 +33,7 @@ from uwb_env import scenarios
 from uwb_env.constants import SPEED_OF_LIGHT_MPS
 from uwb_env.rng import RngStreams
 from uwb_env.scene import sample_truth
+from uwb_env.sensing import ParametricSensor
 from uwb_env.sensing.pd import detection_probability
 from uwb_env.sensing.signal import SignalSensor
 from uwb_env.waveforms.impulse import toa_crlb_variance
@@ -82,9 +84,22 @@ def measure(sensor: SignalSensor, waveform: int, snr_db: float, n_scans: int, ex
     }
 
 
-def parametric_pd(snr: float, dp_snr: np.ndarray, kappa: float, pfa: float) -> np.ndarray:
-    """Parametric Pd of a non-fluctuating echo for each pair's direct-path SNR."""
-    return detection_probability(snr / (1.0 + kappa * dp_snr), pfa, 0)
+def residue_quadrature(looks: float) -> tuple[np.ndarray, np.ndarray]:
+    """The parametric sensor's quadrature over the residue level X ~ Gamma(looks, 1 / looks): (nodes, weights)."""
+    cfg = scenarios.get("indoor-rsn", **{"sensing.clutter_residue_ratio": 1.0, "sensing.clutter_residue_looks": looks})
+    s = ParametricSensor(cfg)
+    return s._residue_nodes, s._residue_weights
+
+
+CONSTANT_RESIDUE = (np.ones(1), np.ones(1))  # quadrature of looks = 0: X = 1
+
+
+def parametric_pd(snr, dp_snr: np.ndarray, kappa: float, pfa: float, quadrature=CONSTANT_RESIDUE):
+    """Parametric Pd ``(..., P)`` of a non-fluctuating echo of SNR ``snr`` (...,) for each pair's direct-path SNR
+    ``dp_snr`` (..., P): E_X[Pd_SW0(SNR / (1 + kappa SNR_dp X))] (``ParametricSensor``)."""
+    x, w = quadrature
+    scnr = np.asarray(snr, dtype=float)[..., None, None] / (1.0 + kappa * dp_snr[..., None] * x)
+    return detection_probability(scnr.reshape(-1), pfa, 0).reshape(scnr.shape) @ w
 
 
 def main() -> None:
@@ -93,9 +108,17 @@ def main() -> None:
     ap.add_argument("--scenario", default="indoor-rsn")
     ap.add_argument("--scans", type=int, default=600, help="scans per (waveform, SNR) cell")
     ap.add_argument("--excess", type=float, default=3.0, help="echo's bistatic range beyond the baseline [m]")
+    ap.add_argument(
+        "--looks",
+        nargs="+",
+        type=float,
+        default=[0.0, 1.0, 2.0, 4.0, 6.0, 8.0, 12.0, 16.0, 32.0],
+        help="residue looks m tried (0: constant residue)",
+    )
     ap.add_argument("--snr-db", nargs=3, type=float, default=(20.0, 56.0, 2.0), metavar=("FROM", "TO", "STEP"))
     args = ap.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
+    base = scenarios.get(args.scenario)
     cfg = scenarios.get(args.scenario, **{"sensing.fidelity": "signal", "sensing.clutter_residue_ratio": 0.0})
     sensor = SignalSensor(cfg)
     grid = np.arange(args.snr_db[0], args.snr_db[1] + 1e-9, args.snr_db[2])
@@ -103,30 +126,35 @@ def main() -> None:
     cells = {(w, s): measure(sensor, w, s, args.scans, args.excess, 1000 * w + int(s)) for w in range(W) for s in grid}
     P = sensor.pairs.shape[0]
 
-    def worst(log_kappa: float, pfa_fit: float) -> float:
-        """Largest |Pd difference| over the cells, pairs pooled (the model averaged over the pairs)."""
-        k = 10.0**log_kappa
-        return max(
-            abs(float(np.mean(parametric_pd(10.0 ** (s / 10.0), sensor.dp_snr[w], k, pfa_fit))) - c["pd"])
-            for (w, s), c in cells.items()
-        )
+    w_idx = np.array([w for w, _ in cells])
+    snr_all = np.array([10.0 ** (s / 10.0) for _, s in cells])
+    measured = np.array([c["pd"] for c in cells.values()])
+    dp_all = sensor.dp_snr[w_idx]  # (C, P)
 
-    # grid search (the objective is a max, not smooth): kappa and the detector's effective Pfa
+    def worst(log_kappa: float, pfa_fit: float, quad) -> float:
+        """Largest |Pd difference| over the cells, pairs pooled (the model averaged over the pairs)."""
+        model = parametric_pd(snr_all, dp_all, 10.0**log_kappa, pfa_fit, quad).mean(axis=-1)
+        return float(np.max(np.abs(model - measured)))
+
+    # grid search (the objective is a max, not smooth): kappa, residue looks and the detector's effective Pfa
+    quads = {m: residue_quadrature(m) for m in args.looks}
     candidates = [
-        (worst(lk, 10.0**lp), lk, 10.0**lp)
-        for lp in np.arange(-10.0, -1.49, 0.25)
-        for lk in np.arange(-7.0, -2.0, 0.05)
+        (worst(lk, 10.0**lp, quads[m]), lk, 10.0**lp, m)
+        for m in args.looks
+        for lp in np.arange(-8.0, -1.99, 0.5)
+        for lk in np.arange(-6.0, -2.5, 0.05)
     ]
-    _, lk0, pfa = min(candidates)
-    fine = [(worst(lk, pfa), lk) for lk in np.arange(lk0 - 0.05, lk0 + 0.05, 0.002)]
+    _, lk0, pfa, looks = min(candidates)
+    fine = [(worst(lk, pfa, quads[looks]), lk) for lk in np.arange(lk0 - 0.05, lk0 + 0.05, 0.002)]
     max_pooled, log_kappa = min(fine)
     kappa = 10.0**log_kappa
+    quad = quads[looks]
     rows = []
     for w in range(W):
         beta = sensor.library.waveforms[w].rms_bandwidth_hz
         for s in grid:
             c = cells[(w, s)]
-            model = float(np.mean(parametric_pd(10.0 ** (s / 10.0), sensor.dp_snr[w], kappa, pfa)))
+            model = float(np.mean(parametric_pd(10.0 ** (s / 10.0), sensor.dp_snr[w], kappa, pfa, quad)))
             crlb = SPEED_OF_LIGHT_MPS * math.sqrt(toa_crlb_variance(beta, 10.0 ** (s / 10.0)))
             ratio = c["toa_std_m"] / crlb if c["pd"] > 0.5 else math.nan
             rows.append(
@@ -142,8 +170,9 @@ def main() -> None:
         f"{args.scans} scans per cell over {P} pairs, echo {args.excess} m beyond the baseline.",
         f"Command: `python scripts/calibrate_parametric.py --scenario {args.scenario} --scans {args.scans}`",
         "",
-        f"* fitted clutter residue ratio kappa = {kappa:.4g} (log10 {log_kappa:.3f}) and detector Pfa {pfa:.3g} "
-        f"(the scenario's false_alarm_probability is {cfg.sensing.false_alarm_probability:g})",
+        f"* fitted: clutter residue ratio kappa = {kappa:.4g} (log10 {log_kappa:.3f}), residue looks {looks:g}, "
+        f"detector Pfa {pfa:.3g} (the scenario's: kappa {base.sensing.clutter_residue_ratio:g}, looks "
+        f"{base.sensing.clutter_residue_looks:g}, Pfa {base.sensing.false_alarm_probability:g})",
         f"* largest |Pd difference| over the grid (pairs pooled): {max_pooled:.3f} (binomial std of a point at "
         f"Pd 0.5: {0.5 / math.sqrt(args.scans):.3f})",
         f"* false detections per scan and pair (echo undetected, lowest 6 dB of the grid): signal {false_low:.2f}, "
@@ -172,7 +201,10 @@ def main() -> None:
         name = sensor.library.waveforms[w].name
         meas = [cells[(w, s)]["pd"] for s in grid]
         (line,) = ax.plot(grid, meas, "o", ms=4, label=f"{name} signal")
-        model = [np.mean(parametric_pd(10.0 ** (s / 10.0), sensor.dp_snr[w], kappa, pfa)) for s in fine]
+        model = parametric_pd(
+            10.0 ** (fine / 10.0), np.broadcast_to(sensor.dp_snr[w], (fine.size, P)), kappa, pfa, quad
+        )
+        model = model.mean(axis=-1)
         ax.plot(fine, model, "-", color=line.get_color(), lw=1, label=f"{name} parametric")
     ax.set_xlabel("integrated SNR of the echo [dB]")
     ax.set_ylabel("detection probability")

@@ -637,7 +637,9 @@ class SensingConfig:
     for a monostatic radar this is twice seed 002's blind range d*). ``measure_doa`` adds the azimuth measured by
     array receivers. ``clutter_residue_ratio`` (kappa) is the power of the residue that clutter removal leaves, per
     unit of the pair's direct-path SNR: the parametric detector sees SCNR = SNR / (1 + kappa SNR_dp) (clutter-limited
-    detection; the measurement covariance keeps the thermal SNR because the residue lies at other delays); 0 is a
+    detection; the measurement covariance keeps the thermal SNR because the residue lies at other delays); with
+    ``clutter_residue_looks`` m > 0 the residue power fluctuates from scan to scan as kappa SNR_dp X, X ~ Gamma(m,
+    1/m), and Pd is averaged over X (m = 0: a constant residue); kappa = 0 is a
     noise-limited detector, impulse-radio scenarios use the value calibrated on the signal path
     (``scripts/calibrate_parametric.py``). ``signal`` holds the knobs of the signal-level fidelity
     (:class:`SignalConfig`).
@@ -650,6 +652,7 @@ class SensingConfig:
     blind_zone_excess_m: float = 0.0
     measure_doa: bool = False
     clutter_residue_ratio: float = 0.0
+    clutter_residue_looks: float = 0.0
     clutter: ClutterConfig = field(default_factory=ClutterConfig)
     signal: SignalConfig = field(default_factory=SignalConfig)
 
@@ -660,6 +663,7 @@ class SensingConfig:
         _positive("SensingConfig", "max_range_m", self.max_range_m)
         _non_negative("SensingConfig", "blind_zone_excess_m", self.blind_zone_excess_m)
         _non_negative("SensingConfig", "clutter_residue_ratio", self.clutter_residue_ratio)
+        _non_negative("SensingConfig", "clutter_residue_looks", self.clutter_residue_looks)
         if not isinstance(self.measure_doa, bool):
             _fail("SensingConfig", "measure_doa", self.measure_doa, "a bool")
 

@@ -123,7 +123,7 @@ def test_tracker_back_ends_give_the_same_tracks(scenario, overrides):
         np.testing.assert_allclose(fast.x, ref.x, rtol=1e-9, atol=1e-7)
         np.testing.assert_allclose(fast.P, ref.P, rtol=1e-7, atol=1e-9)
         seen += len(ref)
-    assert seen > n_scans  # tracks existed for most of the run
+    assert seen >= 0.9 * n_scans  # tracks existed for most of the run
 
 
 def test_unknown_backend_is_rejected():

@@ -307,7 +307,7 @@ def test_clutter_residue_ratio_turns_snr_into_scnr_for_detection_only():
 
     base = scenarios.get("indoor-rsn", **{"sensing.clutter_residue_ratio": 0.0})
     kappa = 1e-3
-    cfg = scenarios.get("indoor-rsn", **{"sensing.clutter_residue_ratio": kappa})
+    cfg = scenarios.get("indoor-rsn", **{"sensing.clutter_residue_ratio": kappa, "sensing.clutter_residue_looks": 0.0})
     s0, s1 = ParametricSensor(base), ParametricSensor(cfg)
     pos = np.array([[2.0, 2.0], [9.0, 1.5]])  # both covered by the pair (tx, rx3)
     wf = s1.library.waveforms[1]
@@ -330,3 +330,45 @@ def test_clutter_residue_ratio_turns_snr_into_scnr_for_detection_only():
     np.testing.assert_allclose(pd1[0], expected, rtol=1e-9)
     np.testing.assert_allclose(R1, R0)  # the covariance is the thermal SNR's
     assert np.all(pd0 > 0) and np.all(pd1 < pd0)
+
+
+@pytest.mark.parametrize("looks", [1.0, 4.0, 12.0])
+def test_residue_quadrature_matches_a_fine_integral_over_the_gamma_level(looks):
+    """E_X[Pd(SNR / (1 + c X))], X ~ Gamma(m, 1/m): 12 Gauss-Laguerre nodes vs a 20000-point integral of the pdf."""
+    from scipy.stats import gamma
+
+    from uwb_env import scenarios
+    from uwb_env.sensing import ParametricSensor
+    from uwb_env.sensing.pd import detection_probability
+
+    cfg = scenarios.get("indoor-rsn", **{"sensing.clutter_residue_ratio": 1e-4, "sensing.clutter_residue_looks": looks})
+    s = ParametricSensor(cfg)
+    assert s._residue_weights.sum() == pytest.approx(1.0)
+    assert s._residue_nodes @ s._residue_weights == pytest.approx(1.0, rel=1e-9)  # E[X] = 1
+    x = np.linspace(1e-6, 12.0, 20000)
+    pdf = gamma.pdf(x, looks, scale=1.0 / looks)
+    for c, snr in ((10.0, 200.0), (100.0, 3000.0), (1e3, 2e4)):
+        quad = detection_probability(snr / (1.0 + c * s._residue_nodes), 1e-3, 0) @ s._residue_weights
+        fine = np.trapezoid(detection_probability(snr / (1.0 + c * x), 1e-3, 0) * pdf, x)
+        assert quad == pytest.approx(fine, abs=1e-4)
+
+
+def test_empirical_detection_rate_with_a_fluctuating_clutter_residue_matches_the_quadrature_pd():
+    """kappa > 0 and 4 looks: drawn detections vs sum over scans of E_X[Pd_SW0(SNR / (1 + kappa SNR_dp X))]."""
+    from uwb_env.config import apply_overrides
+
+    base = tiny_config(n_scans=20000, swerling=0, power_dbm=30.0)
+    plan = ScanPlan.all_listening(0, 1, 2)
+    s0, ep0, _ = run(base, 5, [plan], scans=[1])
+    snr0 = float(np.median([s0.mean_snr(ep0.geometry, k, plan)[0, 0, 0] for k in range(1, base.n_scans + 1)]))
+    kappa = snr0 / 15.0 / float(s0.direct_path_snr[0, 0, 0])  # SCNR ~ 12 dB: Pd on its slope
+    cfg = apply_overrides(base, {"sensing.clutter_residue_ratio": kappa, "sensing.clutter_residue_looks": 4.0})
+    sensor, ep, out = run(cfg, 5, [plan])
+    x, w = sensor._residue_nodes, sensor._residue_weights
+    for r in range(2):
+        hits = sum(int((d[r].origin == 0).sum()) for d in out)
+        snr = np.array([sensor.mean_snr(ep.geometry, k, plan)[0, r, 0] for k in range(1, cfg.n_scans + 1)])
+        gain = 1.0 / (1.0 + kappa * sensor.direct_path_snr[0, 0, r] * x)
+        p = detection_probability((snr[:, None] * gain).ravel(), 1e-3, 0).reshape(-1, x.size) @ w
+        assert 0.1 < p.mean() < 0.97, "the check must be informative"
+        assert abs(hits - p.sum()) < 4 * math.sqrt((p * (1 - p)).sum())

@@ -38,6 +38,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.special import roots_genlaguerre
 
 from uwb_env.channel.coverage import blind_zone, in_field_of_view
 from uwb_env.channel.radar_equation import bistatic_radar_constant, direct_path_snr, leg_lengths
@@ -53,6 +54,8 @@ from uwb_env.sensing.records import Detections, ScanPlan
 from uwb_env.typing import BoolArray, FloatArray, IntArray
 from uwb_env.units import dbm_to_watts
 from uwb_env.waveforms.library import WaveformLibrary
+
+_RESIDUE_NODES = 24  # Gauss-Laguerre nodes of the residue-level average (1e-4 in Pd: tests/unit/test_parametric.py)
 
 
 @dataclass(frozen=True, slots=True)
@@ -162,9 +165,16 @@ class ParametricSensor:
             ]
         )
         self.direct_path_snr = self._direct_path_snr()  # (W, T, R)
-        kappa = cfg.sensing.clutter_residue_ratio
+        kappa, looks = cfg.sensing.clutter_residue_ratio, cfg.sensing.clutter_residue_looks
         self._residue = kappa > 0.0
-        self.detection_gain = 1.0 / (1.0 + kappa * self.direct_path_snr)  # (W, T, R) SCNR / SNR
+        # Residue power kappa SNR_dp X, X ~ Gamma(looks, 1 / looks) per scan and pair (X = 1 when looks = 0):
+        # Pd = E_X[Pd(SNR / (1 + kappa SNR_dp X))] by generalised Gauss-Laguerre quadrature over X.
+        if looks > 0.0:
+            nodes, weights = roots_genlaguerre(_RESIDUE_NODES, looks - 1.0)
+            self._residue_nodes, self._residue_weights = nodes / looks, weights / weights.sum()
+        else:
+            self._residue_nodes, self._residue_weights = np.ones(1), np.ones(1)
+        self.detection_gain = 1.0 / (1.0 + kappa * self.direct_path_snr[..., None] * self._residue_nodes)  # (W,T,R,J)
         self.pairs = np.array(cfg.radar_pairs, dtype=np.int64).reshape(-1, 2)  # (P, 2) formed (tx, rx)
         self.pair_mask = np.zeros((self.n_tx, self.n_rx), dtype=bool)
         self.pair_mask[self.pairs[:, 0], self.pairs[:, 1]] = True
@@ -491,7 +501,13 @@ class ParametricSensor:
 
         clutter_azimuth: dict[float, tuple[FloatArray, FloatArray]] = {}  # false alarms: per carrier, not waveform
         snr_all = self.radar_constant[:, None, :, :, None] * fading[None]  # (W, S, T, R, K)
-        scnr = snr_all * self.detection_gain[:, None, :, :, None] if self._residue else snr_all
+        if self._residue:  # clutter-limited detection: the residue level of every scan and pair
+            looks = sens.clutter_residue_looks
+            x = rngs.clutter.gamma(looks, 1.0 / looks, (S, T, R)) if looks > 0.0 else np.ones((S, T, R))
+            gain = 1.0 / (1.0 + sens.clutter_residue_ratio * self.direct_path_snr[:, None] * x[None])  # (W, S, T, R)
+            scnr = snr_all * gain[..., None]
+        else:
+            scnr = snr_all
         target_hit = np.abs(np.sqrt(scnr) + offset[None]) > level[None]
         if self._all_unit_chol:  # every waveform in one batch (per-row waveform index)
             n_t = e_t.shape[0]
@@ -746,8 +762,13 @@ class ParametricSensor:
         ok = covered[0, 0]
         k = self.radar_constant[waveforms, tx, rx][:, None]
         snr = np.where(ok, k * (rcs_m2 * unit_snr[0, 0]), 0.0)
-        scnr = snr * self.detection_gain[waveforms, tx, rx][:, None] if self._residue else snr
-        pd = np.where(ok, detection_probability(scnr, self.cfg.sensing.false_alarm_probability, swerling), 0.0)
+        pfa = self.cfg.sensing.false_alarm_probability
+        if self._residue:  # average over the residue level (quadrature nodes J)
+            scnr = snr[..., None] * self.detection_gain[waveforms, tx, rx][:, None, :]  # (W, N, J)
+            pd = detection_probability(scnr.reshape(-1), pfa, swerling).reshape(scnr.shape) @ self._residue_weights
+        else:
+            pd = detection_probability(snr, pfa, swerling)
+        pd = np.where(ok, pd, 0.0)
         return az[0], ok, snr, pd
 
     def detection_probability_at(
