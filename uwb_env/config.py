@@ -539,8 +539,10 @@ class SignalConfig:
     threshold ``max_residual_m`` (the LS residual of seed 000 eq. 25, normalised to metres: see
     ``uwb_env.localization.ellipse``), 2-D clustering with ``linkage`` and ``cluster_2d_distance_m``; the position
     covariance is the geometry's (J^T J)^-1 sigma_r^2 with sigma_r = ``range_std_floor_m``; the tracker's clutter
-    density of fused positions is ``false_position_density_per_m2`` (the defaults are measured on indoor-rsn:
-    ``scripts/calibrate_parametric.py``).
+    density of fused positions is ``false_position_density_per_m2``. ``output = "ranges"`` skips the network chain
+    and hands the tracker each pair's bistatic ranges (variance sigma_r^2, ``false_ranges_per_scan`` false ones per
+    scan and pair, spread over the range window): for sparse networks where few receivers see a target at once. The
+    defaults are measured on indoor-rsn (``scripts/calibrate_parametric.py``).
     """
 
     sample_rate_hz: float = 16.4e9
@@ -581,6 +583,8 @@ class SignalConfig:
     linkage: Literal["centroid", "single", "complete"] = "centroid"
     cluster_2d_distance_m: float = 0.5
     range_std_floor_m: float = 0.05
+    output: Literal["positions", "ranges"] = "positions"
+    false_ranges_per_scan: float = 3.0
     false_position_density_per_m2: float = 0.004
 
     def __post_init__(self) -> None:
@@ -624,6 +628,8 @@ class SignalConfig:
         _choice("SignalConfig", "cfar", self.cfar, ("dtb", "ca", "g", "os"))
         _choice("SignalConfig", "toa_estimator", self.toa_estimator, ("median", "peak"))
         _choice("SignalConfig", "linkage", self.linkage, ("centroid", "single", "complete"))
+        _choice("SignalConfig", "output", self.output, ("positions", "ranges"))
+        _non_negative("SignalConfig", "false_ranges_per_scan", self.false_ranges_per_scan)
         if self.direct_path_offset_s * self.sample_rate_hz >= self.n_samples:
             _fail("SignalConfig", "direct_path_offset_s", self.direct_path_offset_s, "inside the scan window")
 

@@ -342,11 +342,50 @@ class SignalSensor:
 
     # -------------------------------------------------------------------------------------------- network
     def sense(self, episode: SignalEpisode, k: int, plan: ScanPlan, time_s: float = 0.0) -> tuple[Detections, ...]:
-        """Scan ``k`` with ``plan``: synthesis, in-sensor chain, network chain -> one record of 2-D positions."""
+        """Scan ``k`` with ``plan``: synthesis, in-sensor chain, then the records of ``signal.output``.
+
+        ``positions``: the network chain's one record of 2-D positions; ``ranges``: one record of bistatic ranges per
+        active pair.
+        """
         plan.validate(self.n_tx, self.n_rx, len(self.library))
         scans, active = self.synthesise(episode, k, plan)
         tr = self.detect(episode, k, plan, scans, active)
+        if self.sig.output == "ranges":
+            return self.ranges(tr, plan, time_s)
         return (self.localize(tr, plan, time_s),)
+
+    def ranges(self, tr: ScanTrace, plan: ScanPlan, time_s: float) -> tuple[Detections, ...]:
+        """The in-sensor ToAs as per-pair bistatic-range detections (no network fusion; the tracker fuses them).
+
+        Variance ``range_std_floor_m``^2; clutter intensity ``false_ranges_per_scan`` spread uniformly over the
+        pair's range window beyond the blind zone (the false-alarm rate measured by the calibration report).
+        """
+        sig, out = self.sig, []
+        window_m = (
+            sig.n_samples - self.dp_sample
+        ) / self.fs * SPEED_OF_LIGHT_MPS - self.cfg.sensing.blind_zone_excess_m
+        density = sig.false_ranges_per_scan / window_m
+        for i, p in enumerate(tr.pairs.tolist()):  # active pairs: a handful
+            sel = np.flatnonzero(tr.toa_row == i)
+            sel = sel[np.argsort(tr.ranges[sel], kind="stable")]
+            n = sel.size
+            t, r = (int(v) for v in self.pairs[p])
+            out.append(
+                Detections(
+                    tx=t,
+                    rx=r,
+                    waveform=int(plan.waveform[t]),
+                    time_s=time_s,
+                    z=tr.ranges[sel][:, None],
+                    R=np.full((n, 1, 1), self.range_std_m**2),
+                    snr=tr.peak[sel],
+                    origin=tr.origin[sel],
+                    measurement_names=("bistatic_range",),
+                    clutter_intensity=np.full(n, density),
+                    expected_false_alarms=sig.false_ranges_per_scan,
+                )
+            )
+        return tuple(out)
 
     def localize(self, tr: ScanTrace, plan: ScanPlan, time_s: float) -> Detections:
         """The network chain on one scan's ToAs (seed 000 section V)."""
