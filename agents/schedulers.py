@@ -143,11 +143,19 @@ _NAMED = {"myopic": Myopic, "round-robin": RoundRobin, "random": Random}
 
 def scheduler_names() -> list[str]:
     """The names ``make_scheduler`` accepts."""
-    return [*_NAMED, "fixed-K", "lookahead-D"]
+    return [*_NAMED, "fixed-K", "lookahead-D", "rl:PATH"]
 
 
 def make_scheduler(name: str) -> Scheduler:
-    """A scheduler from its name: ``myopic``, ``round-robin``, ``random``, ``fixed-K`` (action K), ``lookahead-D``."""
+    """A scheduler from its name.
+
+    ``myopic``, ``round-robin``, ``random``, ``fixed-K`` (action K), ``lookahead-D``, ``rl:PATH`` (a run directory of
+    ``scripts/train.py`` or its model zip; needs the ``rl`` extra).
+    """
+    if name.startswith("rl:"):
+        from agents.rl.training import load_scheduler  # stable-baselines3 and torch only when asked for
+
+        return load_scheduler(name[3:])
     if name in _NAMED:
         return _NAMED[name]()
     if m := re.fullmatch(r"fixed-(\d+)", name):

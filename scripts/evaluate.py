@@ -40,6 +40,7 @@ import json
 import math
 import os
 import pathlib
+import re
 import sys
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -196,7 +197,7 @@ def run_one(campaign: Campaign, scheme: str, seed: int, path: pathlib.Path) -> p
 
 def run_path(out: pathlib.Path, scheme: str, seed: int) -> pathlib.Path:
     """Where a run's record lives."""
-    return out / "runs" / scheme.replace("@", "__") / f"seed-{seed}.csv"
+    return out / "runs" / re.sub(r"[^A-Za-z0-9._-]", "_", scheme.replace("@", "__")) / f"seed-{seed}.csv"
 
 
 def run_campaign(campaign: Campaign, out: pathlib.Path, workers: int = 1, progress: bool = True) -> None:
