@@ -7,6 +7,7 @@ from agents.schedulers import (
     Random,
     RoundRobin,
     Scheduler,
+    check_scheduler_name,
     make_scheduler,
     scheduler_names,
 )
@@ -18,6 +19,7 @@ __all__ = [
     "Random",
     "RoundRobin",
     "Scheduler",
+    "check_scheduler_name",
     "make_scheduler",
     "scheduler_names",
 ]

@@ -9,6 +9,7 @@ to the plan that transmits the most energy -- the best detection for search -- t
 
 from __future__ import annotations
 
+import pathlib
 import re
 from typing import Any, Protocol
 
@@ -144,6 +145,17 @@ _NAMED = {"myopic": Myopic, "round-robin": RoundRobin, "random": Random}
 def scheduler_names() -> list[str]:
     """The names ``make_scheduler`` accepts."""
     return [*_NAMED, "fixed-K", "lookahead-D", "rl:PATH"]
+
+
+def check_scheduler_name(name: str) -> None:
+    """Raise ``ValueError`` unless ``make_scheduler(name)`` can build it (an ``rl:`` run is checked on disk only)."""
+    if name.startswith("rl:"):
+        path = pathlib.Path(name[3:])
+        run = path if path.is_dir() else path.parent
+        if not (run / "run.yaml").is_file() or not ((path / "model.zip") if path.is_dir() else path).is_file():
+            raise ValueError(f"scheduler={name!r}: {str(path)!r} is not a trained run (run.yaml and model.zip)")
+        return
+    make_scheduler(name)
 
 
 def make_scheduler(name: str) -> Scheduler:

@@ -38,6 +38,7 @@ import argparse
 import dataclasses
 import json
 import math
+import multiprocessing
 import os
 import pathlib
 import re
@@ -51,7 +52,7 @@ import yaml
 from scipy import stats
 from tqdm import tqdm
 
-from agents import make_scheduler, scheduler_names
+from agents import check_scheduler_name, make_scheduler, scheduler_names
 from uwb_env import scenarios
 from uwb_env.config import apply_overrides, open_loop_tracker
 from uwb_env.envs import ENV_IDS, UWBSchedulingEnv
@@ -99,6 +100,7 @@ class Campaign:
     runs: int
     seed0: int = 0
     overrides: dict[str, Any] = dataclasses.field(default_factory=dict)
+    env_kwargs: dict[str, Any] = dataclasses.field(default_factory=dict)  # e.g. include_lookahead for an RL agent
     title: str = ""
     reference: dict[str, str] = dataclasses.field(default_factory=dict)
 
@@ -123,7 +125,10 @@ class Campaign:
 
     def definition(self) -> dict[str, Any]:
         """Everything that fixes a run's result (``runs`` may grow on resume)."""
-        return {"env": self.env, "schemes": list(self.schemes), "seed0": self.seed0, "overrides": self.overrides}
+        out = {"env": self.env, "schemes": list(self.schemes), "seed0": self.seed0, "overrides": self.overrides}
+        if self.env_kwargs:  # only when set, so campaigns written before the field existed still resume
+            out["env_kwargs"] = self.env_kwargs
+        return out
 
 
 def parse_scheme(scheme: str) -> tuple[str, str]:
@@ -132,13 +137,13 @@ def parse_scheme(scheme: str) -> tuple[str, str]:
     tracker = tracker or "scenario"
     if tracker not in TRACKERS:
         raise ValueError(f"scheme {scheme!r}: tracker {tracker!r} must be one of {TRACKERS}")
-    make_scheduler(scheduler)  # raises with the allowed names
+    check_scheduler_name(scheduler)  # raises with the allowed names
     return scheduler, tracker
 
 
 def make_env(campaign: Campaign, tracker: str) -> UWBSchedulingEnv:
     """The campaign's environment (the registered id's arguments, the overrides, the scheme's tracker)."""
-    kwargs = dict(ENV_IDS[campaign.env])
+    kwargs = {**ENV_IDS[campaign.env], **campaign.env_kwargs}
     cfg = apply_overrides(scenarios.get(kwargs.pop("scenario")), campaign.overrides)
     if tracker == "open-loop":
         cfg = dataclasses.replace(cfg, tracker=open_loop_tracker(cfg.tracker))
@@ -184,7 +189,7 @@ _ENVS: dict[str, UWBSchedulingEnv] = {}
 def run_one(campaign: Campaign, scheme: str, seed: int, path: pathlib.Path) -> pathlib.Path:
     """Play one (scheme, seed) and write its record atomically to ``path``."""
     scheduler, tracker = parse_scheme(scheme)
-    key = json.dumps([campaign.env, campaign.overrides, tracker], sort_keys=True)
+    key = json.dumps([campaign.env, campaign.overrides, campaign.env_kwargs, tracker], sort_keys=True)
     if key not in _ENVS:  # one env per process and tracker: building it compiles nothing twice
         _ENVS[key] = make_env(campaign, tracker)
     record, names = play(_ENVS[key], make_scheduler(scheduler), seed)
@@ -221,11 +226,16 @@ def run_campaign(campaign: Campaign, out: pathlib.Path, workers: int = 1, progre
             bar.update()
     else:
         # The first run plays here: it compiles (or loads) the numba kernels once, and the forked workers inherit
-        # them instead of compiling side by side on a fresh install.
-        s, seed = jobs.pop(0)
-        run_one(campaign, s, seed, run_path(out, s, seed))
-        bar.update()
-        with ProcessPoolExecutor(max_workers=workers) as pool:
+        # them instead of compiling side by side on a fresh install. A run of a trained RL agent never plays here
+        # and, when there is one, workers start from a fork server: torch's thread pools do not survive a fork.
+        first = next((i for i, (s, _) in enumerate(jobs) if not s.startswith("rl:")), None)
+        if first is not None:
+            s, seed = jobs.pop(first)
+            run_one(campaign, s, seed, run_path(out, s, seed))
+            bar.update()
+        rl = any(s.startswith("rl:") for s, _ in jobs)
+        ctx = multiprocessing.get_context("forkserver") if rl else None
+        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
             futures = [pool.submit(run_one, campaign, s, seed, run_path(out, s, seed)) for s, seed in jobs]
             for f in as_completed(futures):
                 f.result()  # re-raise a worker's error here
@@ -294,6 +304,8 @@ def summarise(campaign: Campaign, out: pathlib.Path) -> str:
     lines.append(f"{campaign.env}, {campaign.runs} paired runs (seeds {campaign.seed0}..{campaign.seeds()[-1]})")
     if campaign.overrides:
         lines.append(f"overrides: {campaign.overrides}")
+    if campaign.env_kwargs:
+        lines.append(f"environment arguments: {campaign.env_kwargs}")
     lines += ["", "## Mean and 95 % confidence interval per scheme", ""]
     lines.append("| metric | " + " | ".join(campaign.schemes) + " |")
     lines.append("| --- |" + " --- |" * len(campaign.schemes))
@@ -397,6 +409,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     ap.add_argument("--seed0", type=int, default=0)
     ap.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                     help="scenario override (dotted path), repeatable")  # fmt: skip
+    ap.add_argument("--env-kwarg", dest="env_kwargs", action="append", default=[], metavar="KEY=VALUE",
+                    help="env argument, e.g. include_lookahead=true (what an rl: agent was trained on)")  # fmt: skip
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--out", type=pathlib.Path, default=pathlib.Path("results/campaign"))
     ap.add_argument("--no-progress", action="store_true")
@@ -411,6 +425,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         runs=args.runs,
         seed0=args.seed0,
         overrides=parse_overrides(args.overrides),
+        env_kwargs=parse_overrides(args.env_kwargs),
         title=preset.get("title", ""),
         reference=preset.get("reference", {}) if not args.schemes else {},
     )

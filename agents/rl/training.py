@@ -32,6 +32,7 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+import torch as th
 import yaml
 from sb3_contrib import MaskablePPO
 from stable_baselines3 import A2C, DQN, PPO
@@ -213,6 +214,12 @@ class PolicyScheduler:
 
     def act(self, obs: Any, env: gym.Env) -> int:  # noqa: D102 - the protocol
         x = np.asarray(obs, dtype=np.float32)[None]
+        want = self.model.observation_space.shape
+        if x.shape[1:] != want:
+            raise ValueError(
+                f"observation shape {x.shape[1:]} != {want}, the trained policy's: build the env with the training "
+                "run's env_kwargs (run.yaml; e.g. include_lookahead=true, --env-kwarg in uwb-env-evaluate)"
+            )
         if self.normalizer is not None:
             x = self.normalizer.normalize_obs(x)
         if self.maskable:
@@ -232,6 +239,7 @@ def load_scheduler(run: str | Path) -> PolicyScheduler:
     if not run_yaml.is_file():
         raise FileNotFoundError(f"{str(run_yaml)!r} not found: a trained run keeps its env id and algorithm there")
     cfg = yaml.safe_load(run_yaml.read_text())
+    th.set_num_threads(1)  # a small MLP: one thread is fastest, and campaign workers must not oversubscribe
     model = ALGORITHMS[cfg["algo"]].load(zip_path, device="cpu")
     norm = zip_path.parent / "vecnormalize.pkl"
     normalizer = None
