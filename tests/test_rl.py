@@ -119,3 +119,26 @@ def test_a_parallel_campaign_with_a_trained_agent_finishes_and_matches_a_serial_
             np.testing.assert_array_equal(a["action"], b["action"])
             # same actions; rewards to the last bits (a fresh process may sum in another order: measured 1e-11)
             np.testing.assert_allclose(a["reward"], b["reward"], rtol=1e-9)
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_default_observation_is_normalised_on_the_scenarios_typical_range(env_id):
+    """Two myopic episodes: every feature stays O(1) (measured max |x| <= 4.4) and no feature's scale is orders of
+    magnitude beyond the others' (99th percentile of |x| per varying feature within 100x of their median)."""
+    from agents import make_scheduler
+
+    env = gym.make(env_id, include_lookahead=True)
+    agent = make_scheduler("myopic")
+    obs = []
+    for seed in range(2):
+        o, _ = env.reset(seed=seed)
+        agent.reset(seed)
+        done = False
+        while not done:
+            o, _, done, _, _ = env.step(agent.act(o, env))
+            obs.append(o)
+    x = np.abs(np.array(obs))
+    assert np.isfinite(x).all() and x.max() <= 10.0
+    scale = np.quantile(x, 0.99, axis=0)
+    varying = scale[np.array(obs).std(axis=0) > 0]
+    assert varying.max() <= 100.0 * np.median(varying)

@@ -16,7 +16,9 @@ Observation (flat ``Box``, default): ``n_slots`` track slots, confirmed tracks f
     [present, existence, confirmed, (x - cx) / hx, (y - cy) / hy, vx / v_max, vy / v_max,
      log10(var_x) / 4, log10(var_y) / 4, corr_xy, mu_1 .. mu_r]
 (cx, cy the area's centre, hx, hy its half-sizes), then the previous action one-hot, then optionally
-log10(1 + lookahead cost) / 4 per action. ``observation="dict"`` gives the same parts as a ``Dict``.
+(log10(lookahead cost + 1e-9 m^2) + 9) / 11 per action (0 at no cost, 0.27 at 1e-6 m^2, 0.82 at 1 m^2:
+the costs span sub-millimetre indoor covariances to metres outdoors). ``observation="dict"`` gives the same parts
+as a ``Dict``.
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ from uwb_env.typing import FloatArray
 from uwb_env.units import dbm_to_watts
 
 ACTION_KINDS = ("waveform", "subset", "joint")
+LOOKAHEAD_FLOOR_M2 = 1e-9  # floor of the log-scaled lookahead costs in the observation
 FIDELITIES = ("parametric", "signal")
 OBS_BOUND = 10.0
 """Observation bounds: every feature is O(1) on the scenario (tracks live inside the area, deleted beyond 50 m std);
@@ -251,7 +254,7 @@ class UWBSchedulingEnv(gym.Env):
             prev[self._previous] = 1.0
         parts = {"tracks": feats, "previous_action": prev}
         if self.include_lookahead:
-            parts["lookahead"] = np.log10(1.0 + self.lookahead_costs()) / 4.0
+            parts["lookahead"] = (np.log10(self.lookahead_costs() + LOOKAHEAD_FLOOR_M2) + 9.0) / 11.0
         for name, v in parts.items():
             if not np.all(np.abs(v) <= OBS_BOUND):  # also catches NaN
                 raise FloatingPointError(
