@@ -33,7 +33,7 @@ from uwb_env import scenarios
 from uwb_env.constants import SPEED_OF_LIGHT_MPS
 from uwb_env.rng import RngStreams
 from uwb_env.scene import sample_truth
-from uwb_env.sensing import ParametricSensor
+from uwb_env.sensing.parametric import residue_quadrature
 from uwb_env.sensing.pd import detection_probability
 from uwb_env.sensing.signal import SignalSensor
 from uwb_env.waveforms.impulse import toa_crlb_variance
@@ -82,13 +82,6 @@ def measure(sensor: SignalSensor, waveform: int, snr_db: float, n_scans: int, ex
         "per_pair_hits": hits,
         "per": per,
     }
-
-
-def residue_quadrature(looks: float) -> tuple[np.ndarray, np.ndarray]:
-    """The parametric sensor's quadrature over the residue level X ~ Gamma(looks, 1 / looks): (nodes, weights)."""
-    cfg = scenarios.get("indoor-rsn", **{"sensing.clutter_residue_ratio": 1.0, "sensing.clutter_residue_looks": looks})
-    s = ParametricSensor(cfg)
-    return s._residue_nodes, s._residue_weights
 
 
 CONSTANT_RESIDUE = (np.ones(1), np.ones(1))  # quadrature of looks = 0: X = 1

@@ -300,23 +300,27 @@ def train(cfg: TrainConfig, resume: bool = False, progress: bool = True) -> Base
             if old.get(key) != run_yaml[key]:
                 raise ValueError(f"--resume: {key} = {run_yaml[key]!r} differs from the run's {old.get(key)!r}")
     (out / "run.yaml").write_text(yaml.safe_dump(run_yaml, sort_keys=True))
+    ckpt = latest_checkpoint(out) if resume else None
+    normalize = common.get("normalize")
     venv = make_vec_env(
-        cfg.env_id, int(common.get("n_envs", 1)), cfg.seed, cfg.env_kwargs, common.get("vec_env", "dummy"), None
+        cfg.env_id,
+        int(common.get("n_envs", 1)),
+        cfg.seed,
+        cfg.env_kwargs,
+        common.get("vec_env", "dummy"),
+        normalize if ckpt is None else None,  # a resumed run loads its normaliser from the checkpoint
     )
     cls = ALGORITHMS[cfg.algo]
-    ckpt = latest_checkpoint(out) if resume else None
     if ckpt is not None:
         path, steps = ckpt
         norm = out / "checkpoints" / f"rl_model_vecnormalize_{steps}_steps.pkl"
-        if common.get("normalize"):
+        if normalize:
             venv = VecNormalize.load(str(norm), venv)
         model = cls.load(path, env=venv, device="cpu")
         buf = out / "checkpoints" / f"rl_model_replay_buffer_{steps}_steps.pkl"
         if hasattr(model, "replay_buffer") and buf.is_file():
             model.load_replay_buffer(buf)
     else:
-        if common.get("normalize"):
-            venv = VecNormalize(venv, **common["normalize"])
         kwargs = {k: v for k, v in hyper.items() if k != "policy"}
         model = cls(hyper.get("policy", "MlpPolicy"), venv, seed=cfg.seed, device="cpu", verbose=0, **kwargs)
     model.set_logger(configure(str(out), ["csv"]))

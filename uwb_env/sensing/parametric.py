@@ -58,6 +58,18 @@ from uwb_env.waveforms.library import WaveformLibrary
 _RESIDUE_NODES = 24  # Gauss-Laguerre nodes of the residue-level average (1e-4 in Pd: tests/unit/test_parametric.py)
 
 
+def residue_quadrature(looks: float) -> tuple[FloatArray, FloatArray]:
+    """Nodes and weights ``(J,)`` of E_X[f(X)] for the clutter residue level X ~ Gamma(looks, 1 / looks).
+
+    Generalised Gauss-Laguerre with ``_RESIDUE_NODES`` nodes (mean 1); ``looks = 0`` is a constant residue, X = 1.
+    The parametric Pd is E_X[Pd(SNR / (1 + kappa SNR_dp X))] (``SensingConfig.clutter_residue_ratio``).
+    """
+    if looks <= 0.0:
+        return np.ones(1), np.ones(1)
+    nodes, weights = roots_genlaguerre(_RESIDUE_NODES, looks - 1.0)
+    return nodes / looks, weights / weights.sum()
+
+
 @dataclass(frozen=True, slots=True)
 class EpisodeGeometry:
     """Truth-dependent quantities of every scan, computed once per episode (they never depend on actions).
@@ -143,37 +155,36 @@ class ParametricSensor:
         self.rcs_mean = np.array([t.rcs_mean_m2 for t in cfg.targets])
         self._swerling_w = swerling_weights(self.swerling)
         # Radar constant per (waveform, tx, rx): the energy and spectrum of the waveform, the nodes' gains.
-        self.radar_constant = np.array(
-            [
-                [
-                    [
-                        bistatic_radar_constant(
-                            wf.scan_energy_j(dbm_to_watts(tx.power_dbm)),
-                            wf.center_freq_hz,
-                            wf.rms_bandwidth_hz,
-                            tx.antenna_gain_db,
-                            rx.antenna_gain_db,
-                            rx.noise_figure_db,
-                            rx.array.n_elements if rx.array else 1,
-                            cfg.channel,
-                        )
-                        for rx in cfg.receivers
-                    ]
-                    for tx in cfg.transmitters
-                ]
-                for wf in self.library.waveforms
-            ]
+        self.radar_constant = self._per_link(
+            lambda wf, tx, rx, _: bistatic_radar_constant(
+                wf.scan_energy_j(dbm_to_watts(tx.power_dbm)),
+                wf.center_freq_hz,
+                wf.rms_bandwidth_hz,
+                tx.antenna_gain_db,
+                rx.antenna_gain_db,
+                rx.noise_figure_db,
+                rx.array.n_elements if rx.array else 1,
+                cfg.channel,
+            )
         )
-        self.direct_path_snr = self._direct_path_snr()  # (W, T, R)
+        # Direct-path SNR over each baseline (at least d0); with clutter_residue_ratio kappa the detector sees
+        # SCNR = SNR / (1 + kappa SNR_dp X) (SensingConfig).
+        d0 = np.maximum(lay.baselines, cfg.channel.reference_distance_m)
+        self.direct_path_snr = self._per_link(
+            lambda wf, tx, rx, tr: direct_path_snr(
+                wf.scan_energy_j(dbm_to_watts(tx.power_dbm)),
+                wf.center_freq_hz,
+                wf.rms_bandwidth_hz,
+                tx.antenna_gain_db,
+                rx.antenna_gain_db,
+                rx.noise_figure_db,
+                d0[tr],
+                cfg.channel,
+            )
+        )
         kappa, looks = cfg.sensing.clutter_residue_ratio, cfg.sensing.clutter_residue_looks
         self._residue = kappa > 0.0
-        # Residue power kappa SNR_dp X, X ~ Gamma(looks, 1 / looks) per scan and pair (X = 1 when looks = 0):
-        # Pd = E_X[Pd(SNR / (1 + kappa SNR_dp X))] by generalised Gauss-Laguerre quadrature over X.
-        if looks > 0.0:
-            nodes, weights = roots_genlaguerre(_RESIDUE_NODES, looks - 1.0)
-            self._residue_nodes, self._residue_weights = nodes / looks, weights / weights.sum()
-        else:
-            self._residue_nodes, self._residue_weights = np.ones(1), np.ones(1)
+        self._residue_nodes, self._residue_weights = residue_quadrature(looks)
         self.detection_gain = 1.0 / (1.0 + kappa * self.direct_path_snr[..., None] * self._residue_nodes)  # (W,T,R,J)
         self.pairs = np.array(cfg.radar_pairs, dtype=np.int64).reshape(-1, 2)  # (P, 2) formed (tx, rx)
         self.pair_mask = np.zeros((self.n_tx, self.n_rx), dtype=bool)
@@ -220,30 +231,13 @@ class ParametricSensor:
         self._unit_cov_stack = np.stack(self._unit_cov) if self._all_unit_chol else None
         self._wavelengths = np.array([w.wavelength_m for w in self.library.waveforms])
 
-    def _direct_path_snr(self) -> FloatArray:
-        """``(W, T, R)`` integrated SNR of the direct path of each waveform and node pair.
-
-        Over its baseline (at least the reference distance d0). With ``clutter_residue_ratio`` kappa the detector
-        sees SCNR = SNR / (1 + kappa SNR_dp) (``SensingConfig``).
-        """
+    def _per_link(self, fn) -> FloatArray:
+        """``(W, T, R)`` array of ``fn(waveform, tx config, rx config, (t, r))`` over the library and node pairs."""
         cfg = self.cfg
-        d = np.maximum(self.layout.baselines, cfg.channel.reference_distance_m)
         return np.array(
             [
                 [
-                    [
-                        direct_path_snr(
-                            wf.scan_energy_j(dbm_to_watts(tx.power_dbm)),
-                            wf.center_freq_hz,
-                            wf.rms_bandwidth_hz,
-                            tx.antenna_gain_db,
-                            rx.antenna_gain_db,
-                            rx.noise_figure_db,
-                            d[t, r],
-                            cfg.channel,
-                        )
-                        for r, rx in enumerate(cfg.receivers)
-                    ]
+                    [fn(wf, tx, rx, (t, r)) for r, rx in enumerate(cfg.receivers)]
                     for t, tx in enumerate(cfg.transmitters)
                 ]
                 for wf in self.library.waveforms

@@ -19,7 +19,7 @@ radar constants and the sensor model a tracker or lookahead uses.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -74,7 +74,6 @@ class SignalEpisode:
     reference: FloatArray  # (W, P, N) reference envelopes (empty room, or the exponential background)
     reference_toa: FloatArray  # (W, P) direct-path ToA of the references [samples]
     reference_peak: FloatArray  # (W, P) direct-path peak of the references [samples] (time origin of the ranges)
-    cache: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True, slots=True)
@@ -132,37 +131,20 @@ class SignalSensor:
         # The room: background paths of every pair, drawn once from background_seed (the same in every episode).
         room = np.random.default_rng(sig.background_seed)
         L = sig.n_multipath
-        excess, amp, phase = (
-            zip(
-                *[
-                    exponential_profile(
-                        room,
-                        L,
-                        sig.multipath_spacing_s,
-                        sig.multipath_decay_s,
-                        db_to_linear(sig.multipath_power_ratio_db),
-                    )
-                    for _ in range(P)
-                ],
-                strict=True,
-            )
-            if P
-            else ((), (), ())
-        )
-        excess = np.array(excess).reshape(P, L)
+        power = db_to_linear(sig.multipath_power_ratio_db)
+        profiles = [
+            exponential_profile(room, L, sig.multipath_spacing_s, sig.multipath_decay_s, power) for _ in range(P)
+        ]
+        excess, amp, phase = (np.array(x).reshape(P, L) for x in zip(*profiles, strict=True))
         self.path_delay_s = np.concatenate([np.zeros((P, 1)), excess], axis=1)  # (P, L + 1) excess over the DP
-        self.path_amplitude = np.concatenate([np.ones((P, 1)), np.array(amp).reshape(P, L)], axis=1)
-        self.path_phase = np.concatenate([np.zeros((P, 1)), np.array(phase).reshape(P, L)], axis=1)
+        self.path_amplitude = np.concatenate([np.ones((P, 1)), amp], axis=1)
+        self.path_phase = np.concatenate([np.zeros((P, 1)), phase], axis=1)
         angle = room.uniform(0.0, 2.0 * math.pi, (P, L))
-        self.bounce = (
-            np.stack(  # (P, L, 2) virtual reflection point of each multipath on its delay ellipse
-                [
-                    points_on_ellipse(tx_pos[i], rx_pos[i], self.baseline[i] + SPEED_OF_LIGHT_MPS * excess[i], angle[i])
-                    for i in range(P)
-                ]
-            )
-            if P
-            else np.zeros((0, L, 2))
+        self.bounce = np.stack(  # (P, L, 2) virtual reflection point of each multipath on its delay ellipse
+            [
+                points_on_ellipse(tx_pos[i], rx_pos[i], self.baseline[i] + SPEED_OF_LIGHT_MPS * excess[i], angle[i])
+                for i in range(P)
+            ]
         )
         self.dp_sample = sig.direct_path_offset_s * self.fs
         fc, s = float(self.fc[0]), float(self.pulse_s[0])
@@ -179,7 +161,6 @@ class SignalSensor:
         self.jump_back = max(1, round(sig.dp_jump_back_s * self.fs))
         self.blind = cfg.sensing.blind_zone_excess_m / SPEED_OF_LIGHT_MPS * self.fs
         self.half_window = max(4, round(4.0 * s * self.fs))
-        2 * sig.cfar_reference
         self.alpha = 0.0  # threshold factor of CA / G / OS (DTB has its own weights)
         if sig.cfar == "ca":
             self.alpha = ca_threshold_factor(sig.cfar_pfa, 2 * sig.cfar_reference)
@@ -190,7 +171,6 @@ class SignalSensor:
         self.range_std_m = sig.range_std_floor_m
         area = lay.area
         self._area_m2 = float((area[1] - area[0]) * (area[3] - area[2]))
-        self._pair_of_rx = {int(r): i for i, (_, r) in enumerate(self.pairs.tolist())}
 
     # ------------------------------------------------------------------------------------------------ episode
     def new_episode(self, truth: Truth, rngs: RngStreams) -> SignalEpisode:
@@ -252,23 +232,40 @@ class SignalSensor:
             near |= (segment_distance(pos[j], a, b) < sig.shadow_radius_m) | (
                 segment_distance(pos[j], b, c) < sig.shadow_radius_m
             )
-        gain = self.path_amplitude[active] * np.concatenate(
-            [np.ones((active.size, 1)), 1.0 + episode.fluctuation[active]], axis=1
-        )
+        gain = self._background_gain(self.path_amplitude[active], episode.fluctuation[active])
         gain = np.where(near, gain * 10.0 ** (-sig.shadow_loss_db / 20.0), gain)
-        scan = np.sqrt(2.0 * self.dp_snr[w, active])[:, None] * np.einsum(
+        background = np.sqrt(2.0 * self.dp_snr[w, active])[:, None] * np.einsum(
             "pl,pln->pn", gain, self.path_waveforms[active]
         )
         # Echoes: integrated SNR = radar constant x unit SNR x RCS fluctuation; delay relative to the direct path.
         snr = self.model.radar_constant[w, t_i, r_i][:, None] * geom.unit_snr[k, t_i, r_i] * fluct[t_i, r_i]
         snr = np.where(alive[None], snr, 0.0)
         excess = (geom.bistatic_range[k, t_i, r_i] - self.baseline[active][:, None]) / SPEED_OF_LIGHT_MPS
+        excess = np.where(alive[None], excess, -1.0)  # dead targets: far before the window (and zero SNR)
+        return self._compose(background, excess, snr, phase[active], jitter[active], noise[active]), active
+
+    @staticmethod
+    def _background_gain(amplitude: FloatArray, fluctuation: FloatArray) -> FloatArray:
+        """``(B, L + 1)`` path gains: the direct path's, and the multipaths' times (1 + their fluctuation)."""
+        return amplitude * np.concatenate([np.ones((fluctuation.shape[0], 1)), 1.0 + fluctuation], axis=1)
+
+    def _compose(
+        self,
+        background: FloatArray,
+        excess_s: FloatArray,
+        snr: FloatArray,
+        phase: FloatArray,
+        jitter: FloatArray,
+        noise: FloatArray,
+    ) -> FloatArray:
+        """Scans ``(B, N)``: the background plus echoes, delayed by ``jitter`` [samples], plus unit ``noise``.
+
+        The echoes ``(B, K)`` lie ``excess_s`` after the direct path with integrated ``snr`` and carrier ``phase``.
+        """
         fc, s = self._pulse
-        echoes = unit_pulses(
-            self.t, self.sig.direct_path_offset_s + np.where(alive[None], excess, -1.0), phase[active], fc, s, self.fs
-        )
-        scan += np.einsum("pk,pkn->pn", np.sqrt(2.0 * snr), echoes)
-        return fractional_shift(scan, jitter[active]) + noise[active], active
+        echoes = unit_pulses(self.t, self.sig.direct_path_offset_s + excess_s, phase, fc, s, self.fs)
+        scan = background + np.einsum("pk,pkn->pn", np.sqrt(2.0 * snr), echoes)
+        return fractional_shift(scan, jitter) + noise
 
     # ------------------------------------------------------------------------------------------- in-sensor
     def detect(self, episode: SignalEpisode, k: int, plan: ScanPlan, scans: FloatArray, active: IntArray) -> ScanTrace:
@@ -319,16 +316,15 @@ class SignalSensor:
         """
         sig = self.sig
         B = np.asarray(snr).shape[0]
-        L = sig.n_multipath
-        fluct = sig.clutter_fluctuation * rng.standard_normal((B, L))
-        gain = self.path_amplitude[pair] * np.concatenate([np.ones((B, 1)), 1.0 + fluct], axis=1)
-        scan = math.sqrt(2.0 * self.dp_snr[waveform, pair]) * gain @ self.path_waveforms[pair]
-        fc, s = self._pulse
-        delay = sig.direct_path_offset_s + excess_range_m / SPEED_OF_LIGHT_MPS
-        echo = unit_pulses(self.t, np.full(B, delay), rng.uniform(0.0, 2.0 * math.pi, B), fc, s, self.fs)
-        scan += np.sqrt(2.0 * np.asarray(snr, dtype=float))[:, None] * echo
+        gain = self._background_gain(
+            self.path_amplitude[pair], sig.clutter_fluctuation * rng.standard_normal((B, sig.n_multipath))
+        )
+        background = math.sqrt(2.0 * self.dp_snr[waveform, pair]) * gain @ self.path_waveforms[pair]
+        excess = np.full((B, 1), excess_range_m / SPEED_OF_LIGHT_MPS)
+        phase = rng.uniform(0.0, 2.0 * math.pi, (B, 1))
         jitter = sig.scan_jitter_s * self.fs * rng.standard_normal(B)
-        return fractional_shift(scan, jitter) + rng.standard_normal(scan.shape)
+        noise = rng.standard_normal(background.shape)
+        return self._compose(background, excess, np.asarray(snr, dtype=float)[:, None], phase, jitter, noise)
 
     def _cfar(self, d: FloatArray) -> BoolArray:
         sig = self.sig
