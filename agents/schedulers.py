@@ -2,7 +2,7 @@
 
 RoundRobin, Fixed and Random are seed 003's open-loop baselines; Myopic is its closed-loop scheduler, the argmin of
 the environment's one-step lookahead costs (seed 003 eq. 7); MultiStepLookahead searches sequences of d plans on
-the expected covariance recursion (``uwb_env.lookahead.sequence_costs``). Ties (no track yet: every cost is 0) go
+the expected covariance recursion (the env's ``sequence_costs``). Ties (no track yet: every cost is 0) go
 to the plan that transmits the most energy -- the best detection for search -- then to the lowest action index.
 ``make_scheduler("fixed-2")`` builds one from its name (the campaign's schemes).
 """
@@ -16,7 +16,7 @@ from typing import Any, Protocol
 import gymnasium as gym
 import numpy as np
 
-from uwb_env.lookahead import check_search, sequence_costs
+from uwb_env.lookahead import check_search
 
 
 class Scheduler(Protocol):
@@ -127,12 +127,7 @@ class MultiStepLookahead:
 
     def costs(self, env: gym.Env) -> np.ndarray:
         """``(A,)`` the cheapest d-scan cost of the sequences starting with each action (``inf``: pruned)."""
-        e = env.unwrapped
-        period = e.cfg.sensing.scan_period_s
-        k = e.sim.k + 1
-        return sequence_costs(
-            e.sim.sensor, e.sim.tracker, e.plans, k * period, k, period, self.depth, self.beam, self.discount
-        )
+        return env.unwrapped.sequence_costs(self.depth, self.beam, self.discount)
 
     def act(self, obs: Any, env: gym.Env) -> int:
         """Argmin over the valid actions of :meth:`costs`."""

@@ -30,6 +30,12 @@ from the combined (x, P): x_j = F_j x, P_j = F_j P F_j^T + Q_j, mixed with the p
 mu^- = Pi^T mu and the spread of the x_j; the VS-IMM set of that scan, with the tracker's switch rule for mu).
 Means stay at their predictions (the expected innovation is zero). A beam of width B keeps, after every scan, the
 B cheapest partial sequences (``beam=None``: all A^d), so depth d costs A + (d - 1) B A expected updates.
+
+Receiver warm-up (``ready_rx``, the environments' ``receiver_warmup``): a receiver delivers detections only if it
+also listened in the previous scan (it spends its first listening scan re-acquiring its background and clock). The
+one-step cost then uses the plan's listening receivers that are ready now; along a sequence, the receivers ready at
+scan l + 1 are those the sequence's plan l listens with. This is what makes one-step lookahead short-sighted there:
+a receiver switched in pays off one scan later, which depth 1 cannot see.
 """
 
 from __future__ import annotations
@@ -77,8 +83,13 @@ def expected_posterior(
     tracker: Tracker,
     plans: Sequence[ScanPlan],
     q2: float = 1.0,
+    delivering: BoolArray | None = None,
 ) -> FloatArray:
-    """Expected posterior covariances ``(A, N, 6, 6)`` of N predicted tracks ``x (N, 6)``, ``P (N, 6, 6)``."""
+    """Expected posterior covariances ``(A, N, 6, 6)`` of N predicted tracks ``x (N, 6)``, ``P (N, 6, 6)``.
+
+    ``delivering`` ``(A, N, R)``: which receivers' detections reach track n under plan a (default: the plan's
+    listening receivers for every track); a pair updates only where its receiver delivers.
+    """
     A, N = len(plans), x.shape[0]
     Pa = np.broadcast_to(P, (A, N, 6, 6)).copy()
     if N == 0:
@@ -88,7 +99,7 @@ def expected_posterior(
     listening = np.array([p.active_rx for p in plans])  # (A, R)
     pos = x[:, POSITION]
     for tx, rx in sensor.pairs.tolist():
-        used = listening[:, rx]
+        used = listening[:, rx] if delivering is None else delivering[:, :, rx].any(axis=1)
         if not used.any():
             continue
         names = sensor.measurement_names(rx)
@@ -102,6 +113,8 @@ def expected_posterior(
         which = np.searchsorted(sent, wf[used])
         pd[used] = np.minimum(pd_w[which], cfg.max_detection_probability)
         R[used] = R_w[which]
+        if delivering is not None:
+            pd = pd * delivering[:, :, rx]
         PHt = Pa @ np.swapaxes(H, -1, -2)[None]  # (A, N, 6, m)
         S = H[None] @ PHt + R
         K = np.swapaxes(np.linalg.solve(S, np.swapaxes(PHt, -1, -2)), -1, -2)
@@ -117,16 +130,27 @@ def lookahead_costs(
     time_s: float,
     scan_index: int,
     q2: float = 1.0,
+    ready_rx: BoolArray | None = None,
 ) -> FloatArray:
     """Expected mean position-covariance trace ``(A,)`` [m^2] over the scored tracks after the next scan.
 
+    ``ready_rx`` ``(R,)``: the receivers able to deliver this scan (warm-up, module docstring); None: all.
     Zero for every plan when there is no track. Pure: no tracker state changes, no random draw.
     """
     scored = scored_prediction(tracker, time_s, scan_index)
     if scored is None:
         return np.zeros(len(plans))
     x, P = scored.combined()
-    return position_trace(expected_posterior(x, P, sensor, tracker, plans, q2)).mean(axis=1)
+    delivering = None if ready_rx is None else _delivering(plans, ready_rx[None], x.shape[0])
+    return position_trace(expected_posterior(x, P, sensor, tracker, plans, q2, delivering)).mean(axis=1)
+
+
+def _delivering(plans: Sequence[ScanPlan], ready: BoolArray, n_tracks: int) -> BoolArray:
+    """``(A, B * N, R)``: plan a's listening receivers that are ready in kept sequence b (``ready`` ``(B, R)``)."""
+    listening = np.array([p.active_rx for p in plans])  # (A, R)
+    both = listening[:, None, None, :] & ready[None, :, None, :]  # (A, B, 1, R)
+    A, B, _, R = both.shape
+    return np.broadcast_to(both, (A, B, n_tracks, R)).reshape(A, B * n_tracks, R)
 
 
 def position_trace(P: FloatArray) -> FloatArray:
@@ -165,10 +189,12 @@ def sequence_costs(
     beam: int | None = None,
     discount: float = 1.0,
     q2: float = 1.0,
+    ready_rx: BoolArray | None = None,
 ) -> FloatArray:
     """``(A,)`` for every first plan, the cheapest d-scan cost of the sequences that start with it (module docstring).
 
-    ``inf`` for a first plan whose every sequence the beam pruned. Depth 1 is ``lookahead_costs``. Pure.
+    ``ready_rx`` ``(R,)``: the receivers ready now under receiver warm-up (None: no warm-up). ``inf`` for a first
+    plan whose every sequence the beam pruned. Depth 1 is ``lookahead_costs``. Pure.
     """
     check_search(depth, beam, discount)
     A = len(plans)
@@ -180,10 +206,15 @@ def sequence_costs(
     N = x.shape[0]
     first = np.zeros(1, np.int64)  # per kept sequence: its first plan (none yet)
     cum = np.zeros(1)  # per kept sequence: its cost so far
+    ready = None if ready_rx is None else np.asarray(ready_rx, bool)[None]  # (B, R) per kept sequence
+    listening = np.array([p.active_rx for p in plans])  # (A, R)
     xs, Ps, mus = x[None], P[None], mu[None]  # (B, N, ...) per kept sequence
     for level in range(depth):
         B = cum.size
-        Pa = expected_posterior(xs.reshape(B * N, 6), Ps.reshape(B * N, 6, 6), sensor, tracker, plans, q2)
+        delivering = None if ready is None else _delivering(plans, ready, N)
+        Pa = expected_posterior(
+            xs.reshape(B * N, 6), Ps.reshape(B * N, 6, 6), sensor, tracker, plans, q2, delivering
+        )
         Pa = Pa.reshape(A, B, N, 6, 6)
         step = position_trace(Pa).mean(axis=-1)  # (A, B)
         total = cum[None] + discount**level * step
@@ -198,6 +229,8 @@ def sequence_costs(
             return costs
         ai, bi = np.unravel_index(order, (A, B))
         first, cum = starts[ai, bi], flat[order]
+        if ready is not None:  # the next scan's ready receivers: those this scan's plan listens with
+            ready = listening[ai]
         k = scan_index + level + 1
         x2, P2, mu2, active2 = predict_combined(
             xs[bi].reshape(-1, 6),

@@ -21,7 +21,7 @@ from uwb_env.sensing.parametric import EpisodeSensing, ParametricSensor
 from uwb_env.sensing.records import Detections, ScanPlan
 from uwb_env.sensing.signal import SignalSensor
 from uwb_env.tracking.tracker import Tracker, TrackSet
-from uwb_env.typing import FloatArray
+from uwb_env.typing import BoolArray, FloatArray
 
 
 @dataclass(frozen=True, slots=True)
@@ -80,14 +80,24 @@ class Simulator:
         """Whether every scan of the episode has been played."""
         return self.k >= self.cfg.n_scans
 
-    def step(self, plan: ScanPlan) -> ScanResult:
-        """Sense the next scan with ``plan`` and update the tracker."""
+    def step(self, plan: ScanPlan, ready_rx: BoolArray | None = None) -> ScanResult:
+        """Sense the next scan with ``plan`` and update the tracker.
+
+        ``ready_rx`` ``(R,)``: the receivers able to deliver detections (receiver warm-up,
+        ``uwb_env.lookahead``); the plan's other listening receivers deliver nothing. None: every one.
+        """
         if self.done:
             raise RuntimeError(f"episode over: all {self.cfg.n_scans} scans of {self.cfg.name!r} were played")
         self.k += 1
         t = self.k * self.cfg.sensing.scan_period_s
-        self._plan = plan
-        dets = self.sensor.sense(self.episode, self.k, plan, t)
+        delivering = plan.active_rx if ready_rx is None else plan.active_rx & ready_rx
+        # Sense with the delivering receivers (the streams draw for every formed pair whatever the plan, so this
+        # keeps common random numbers); with none, sense the listening plan and drop everything.
+        sensed = ScanPlan(plan.waveform, delivering) if ready_rx is not None and delivering.any() else plan
+        self._plan = sensed
+        dets = self.sensor.sense(self.episode, self.k, sensed, t)
+        if not delivering.any():  # every listening receiver is warming up: the tracker only predicts
+            dets = ()
         tracks = self.tracker.step(dets, t, self.k)
         return ScanResult(self.k, t, dets, tracks)
 

@@ -6,8 +6,17 @@ ENV_IDS = {
     "uwb_env/UrbanWaveform-v0": {"scenario": "urban-intersection", "action_kind": "waveform"},
     "uwb_env/IndoorSensorSubset-v0": {"scenario": "indoor-rsn", "action_kind": "subset", "subset_size": 3},
     "uwb_env/IndoorJoint-v0": {"scenario": "indoor-rsn", "action_kind": "joint", "subset_size": 3},
+    "uwb_env/IndoorSubsetWarmup-v0": {
+        "scenario": "indoor-rsn",
+        "action_kind": "subset",
+        "subset_size": 3,
+        "receiver_warmup": True,
+    },
 }
-"""Registered ids and their default keyword arguments (``gymnasium.make(id, **kwargs)`` overrides them)."""
+"""Registered ids and their default keyword arguments (``gymnasium.make(id, **kwargs)`` overrides them).
+
+``IndoorSubsetWarmup-v0`` is the scenario where one-step lookahead is short-sighted (receiver warm-up,
+``uwb_env.envs.scheduling``)."""
 
 
 def register_envs() -> None:

@@ -12,13 +12,22 @@ Reward (SPEC.md step 6): minus the mean over confirmed tracks of trace(P) of the
 (otherwise a scheduler that loses every track would pay nothing), minus ``energy_cost_per_j`` times the scan's
 transmitted energy. The components are in ``info``.
 
+Receiver warm-up (``receiver_warmup=True``): a receiver that did not listen in the previous scan spends its first
+listening scan re-acquiring its background (seed 001's exponential average, seed 000's empty-room reference, which
+the slowly moving clutter makes stale) and its clock, and delivers no detection; at ``reset`` every receiver is
+ready (the network was calibrated listening). The scan's energy is paid all the same. Here one-step lookahead is
+short-sighted: a switched-in receiver pays off one scan later, so the myopic scheduler's cost of any other subset is
+never below its current one (each delivering pair's expected update only lowers P, and the other subset's ready
+receivers are a subset of the current ones), and it keeps its first subset for the whole episode, however the
+target moves. The multi-step lookahead (``sequence_costs``) sees the delayed pay-off.
+
 Observation (flat ``Box``, default): ``n_slots`` track slots, confirmed tracks first then by existence, each
     [present, existence, confirmed, (x - cx) / hx, (y - cy) / hy, vx / v_max, vy / v_max,
      log10(var_x) / 4, log10(var_y) / 4, corr_xy, mu_1 .. mu_r]
 (cx, cy the area's centre, hx, hy its half-sizes), then the previous action one-hot, then optionally
 (log10(lookahead cost + 1e-9 m^2) + 9) / 11 per action (0 at no cost, 0.27 at 1e-6 m^2, 0.82 at 1 m^2:
-the costs span sub-millimetre indoor covariances to metres outdoors). ``observation="dict"`` gives the same parts
-as a ``Dict``.
+the costs span sub-millimetre indoor covariances to metres outdoors), then with receiver warm-up the ready
+receivers (0/1 each). ``observation="dict"`` gives the same parts as a ``Dict``.
 """
 
 from __future__ import annotations
@@ -33,11 +42,11 @@ from gymnasium import spaces
 
 from uwb_env import scenarios
 from uwb_env.config import ScenarioConfig, apply_overrides
-from uwb_env.lookahead import lookahead_costs
+from uwb_env.lookahead import lookahead_costs, sequence_costs
 from uwb_env.metrics import assign, ospa
 from uwb_env.sensing.records import ScanPlan
 from uwb_env.sim import ScanResult, Simulator
-from uwb_env.typing import FloatArray
+from uwb_env.typing import BoolArray, FloatArray
 from uwb_env.units import dbm_to_watts
 
 ACTION_KINDS = ("waveform", "subset", "joint")
@@ -77,6 +86,8 @@ class UWBSchedulingEnv(gym.Env):
         n_slots: track slots in the observation; observation: ``"box"`` or ``"dict"``;
         include_lookahead: append the lookahead cost of every action to the observation.
         missed_target_penalty_m2, cover_gate_m, energy_cost_per_j: reward terms (module docstring).
+        receiver_warmup: a receiver delivers only if it listened in the previous scan (module docstring); the
+            observation then ends with the ready receivers (0/1 per receiver).
         render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
     """
 
@@ -95,6 +106,7 @@ class UWBSchedulingEnv(gym.Env):
         missed_target_penalty_m2: float = 100.0,
         cover_gate_m: float = 5.0,
         energy_cost_per_j: float = 0.0,
+        receiver_warmup: bool = False,
         render_mode: str | None = None,
         **overrides: Any,
     ) -> None:
@@ -127,6 +139,9 @@ class UWBSchedulingEnv(gym.Env):
         self.missed_target_penalty_m2 = missed_target_penalty_m2
         self.cover_gate_m = cover_gate_m
         self.energy_cost_per_j = energy_cost_per_j
+        if not isinstance(receiver_warmup, bool):
+            raise ValueError(f"receiver_warmup={receiver_warmup!r}: must be True or False")
+        self.receiver_warmup = receiver_warmup
         self.render_mode = render_mode
         self.action_space = spaces.Discrete(len(self.plans))
         self.n_models = self.sim.tracker.r
@@ -151,6 +166,8 @@ class UWBSchedulingEnv(gym.Env):
         }
         if include_lookahead:
             parts["lookahead"] = spaces.Box(0.0, OBS_BOUND, (len(self.plans),), np.float32)
+        if receiver_warmup:
+            parts["ready_receivers"] = spaces.Box(0.0, 1.0, (sensor.n_rx,), np.float32)
         self._parts = parts
         if observation == "dict":
             self.observation_space = spaces.Dict(parts)
@@ -159,6 +176,7 @@ class UWBSchedulingEnv(gym.Env):
             self.observation_space = spaces.Box(-OBS_BOUND, OBS_BOUND, (size,), np.float32)
         self._previous: int | None = None
         self._last: ScanResult | None = None
+        self._ready_rx = np.ones(sensor.n_rx, dtype=bool)
 
     # ------------------------------------------------------------------------------------------------- gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
@@ -167,6 +185,7 @@ class UWBSchedulingEnv(gym.Env):
         if seed is None:  # draw the episode seed from the env's own generator (seeded by an earlier reset)
             seed = int(self.np_random.integers(2**63 - 1))
         self.sim.reset(seed)
+        self._ready_rx = np.ones(self.sim.sensor.n_rx, dtype=bool)
         self._previous = None
         self._last = None
         return self._observation(), {"scan_index": 0}
@@ -176,7 +195,10 @@ class UWBSchedulingEnv(gym.Env):
         a = self._check_action(action)
         if self.sim.done:
             raise RuntimeError("step() after the episode ended: call reset()")
-        res = self.sim.step(self.plans[a])
+        plan = self.plans[a]
+        res = self.sim.step(plan, self.ready_rx)
+        if self.receiver_warmup:
+            self._ready_rx = plan.active_rx.copy()
         self._previous, self._last = a, res
         reward, info = self._reward_and_info(res, a)
         return self._observation(), reward, self.sim.done, False, info
@@ -185,10 +207,28 @@ class UWBSchedulingEnv(gym.Env):
         """``(n_actions,)`` which actions are valid now (all enumerated plans are)."""
         return np.ones(len(self.plans), dtype=bool)
 
+    @property
+    def ready_rx(self) -> BoolArray | None:
+        """``(R,)`` the receivers able to deliver in the next scan under receiver warm-up; None without it."""
+        return self._ready_rx.copy() if self.receiver_warmup else None
+
     def lookahead_costs(self) -> FloatArray:
         """Expected mean position-covariance trace [m^2] after the next scan for every action (pure)."""
         k = self.sim.k + 1
-        return lookahead_costs(self.sim.sensor, self.sim.tracker, self.plans, k * self.cfg.sensing.scan_period_s, k)
+        period = self.cfg.sensing.scan_period_s
+        return lookahead_costs(self.sim.sensor, self.sim.tracker, self.plans, k * period, k, ready_rx=self.ready_rx)
+
+    def sequence_costs(self, depth: int, beam: int | None = None, discount: float = 1.0) -> FloatArray:
+        """``(A,)`` the cheapest expected d-scan cost of the plan sequences starting with each action (pure).
+
+        ``uwb_env.lookahead.sequence_costs`` on this env's tracker, sensor model and warm-up state.
+        """
+        k = self.sim.k + 1
+        period = self.cfg.sensing.scan_period_s
+        sim = self.sim
+        return sequence_costs(
+            sim.sensor, sim.tracker, self.plans, k * period, k, period, depth, beam, discount, ready_rx=self.ready_rx
+        )
 
     # ----------------------------------------------------------------------------------------------- internals
     def _check_action(self, action: Any) -> int:
@@ -255,6 +295,8 @@ class UWBSchedulingEnv(gym.Env):
         parts = {"tracks": feats, "previous_action": prev}
         if self.include_lookahead:
             parts["lookahead"] = (np.log10(self.lookahead_costs() + LOOKAHEAD_FLOOR_M2) + 9.0) / 11.0
+        if self.receiver_warmup:
+            parts["ready_receivers"] = self._ready_rx.astype(float)
         for name, v in parts.items():
             if not np.all(np.abs(v) <= OBS_BOUND):  # also catches NaN
                 raise FloatingPointError(
