@@ -8,6 +8,7 @@ import pytest
 import yaml
 
 from agents.rl import ALGORITHMS, PolicyScheduler, TrainConfig, latest_checkpoint, load_preset, load_scheduler, train
+from uwb_env.envs import ENV_IDS as REGISTERED
 
 ENV_IDS = ["uwb_env/UrbanWaveform-v0", "uwb_env/IndoorSensorSubset-v0", "uwb_env/IndoorJoint-v0"]
 SMALL = {  # a few hundred steps: small rollouts, one evaluation episode, no learning delay
@@ -28,7 +29,7 @@ def _cfg(tmp_path, env_id, algo, steps, **extra):
     return TrainConfig(env_id, algo, steps, tmp_path / "run", seed=3, overrides={**SMALL, **PER_ALGO[algo], **extra})
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", sorted(REGISTERED))
 @pytest.mark.parametrize("algo", sorted(ALGORITHMS))
 def test_each_algorithm_trains_a_few_hundred_steps_on_each_env(tmp_path, env_id, algo):
     model = train(_cfg(tmp_path, env_id, algo, 256), progress=False)
@@ -121,7 +122,7 @@ def test_a_parallel_campaign_with_a_trained_agent_finishes_and_matches_a_serial_
             np.testing.assert_allclose(a["reward"], b["reward"], rtol=1e-9)
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", sorted(REGISTERED))
 def test_default_observation_is_normalised_on_the_scenarios_typical_range(env_id):
     """Two myopic episodes: every feature stays O(1) (measured max |x| <= 4.4) and no feature's scale is orders of
     magnitude beyond the others' (99th percentile of |x| per varying feature within 100x of their median)."""

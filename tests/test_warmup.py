@@ -79,6 +79,21 @@ def test_one_step_costs_use_only_the_ready_receivers(tracking_env):
     )
 
 
+def test_observed_lookahead_holds_the_warmup_and_the_all_ready_costs(tracking_env):
+    env = tracking_env
+    k = env.sim.k + 1
+    t = k * env.cfg.sensing.scan_period_s
+    seen = gym.make(ENV_ID, include_lookahead=True, observation="dict").unwrapped
+    seen.reset(seed=3)
+    for _ in range(12):
+        obs, *_ = seen.step(0)
+    all_ready = lookahead_costs(env.sim.sensor, env.sim.tracker, env.plans, t, k)
+    np.testing.assert_allclose(obs["lookahead"], (np.log10(env.lookahead_costs() + 1e-9) + 9) / 11, rtol=1e-6)
+    np.testing.assert_allclose(obs["lookahead_all_ready"], (np.log10(all_ready + 1e-9) + 9) / 11, rtol=1e-6)
+    np.testing.assert_array_equal(obs["ready_receivers"], env.ready_rx.astype(np.float32))
+    assert (all_ready <= env.lookahead_costs() * (1 + 1e-12)).all()  # more ready receivers never cost more
+
+
 def test_myopic_is_stuck_on_its_subset(tracking_env):
     """The docstring's argument: no other subset's one-step cost is below the current one's, so myopic stays."""
     env = tracking_env

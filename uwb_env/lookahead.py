@@ -212,9 +212,7 @@ def sequence_costs(
     for level in range(depth):
         B = cum.size
         delivering = None if ready is None else _delivering(plans, ready, N)
-        Pa = expected_posterior(
-            xs.reshape(B * N, 6), Ps.reshape(B * N, 6, 6), sensor, tracker, plans, q2, delivering
-        )
+        Pa = expected_posterior(xs.reshape(B * N, 6), Ps.reshape(B * N, 6, 6), sensor, tracker, plans, q2, delivering)
         Pa = Pa.reshape(A, B, N, 6, 6)
         step = position_trace(Pa).mean(axis=-1)  # (A, B)
         total = cum[None] + discount**level * step

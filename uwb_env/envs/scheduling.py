@@ -26,8 +26,9 @@ Observation (flat ``Box``, default): ``n_slots`` track slots, confirmed tracks f
      log10(var_x) / 4, log10(var_y) / 4, corr_xy, mu_1 .. mu_r]
 (cx, cy the area's centre, hx, hy its half-sizes), then the previous action one-hot, then optionally
 (log10(lookahead cost + 1e-9 m^2) + 9) / 11 per action (0 at no cost, 0.27 at 1e-6 m^2, 0.82 at 1 m^2:
-the costs span sub-millimetre indoor covariances to metres outdoors), then with receiver warm-up the ready
-receivers (0/1 each). ``observation="dict"`` gives the same parts as a ``Dict``.
+the costs span sub-millimetre indoor covariances to metres outdoors; with receiver warm-up also the same costs as if
+every receiver were ready, the value of each subset once warm), then with receiver warm-up the ready receivers
+(0/1 each). ``observation="dict"`` gives the same parts as a ``Dict``.
 """
 
 from __future__ import annotations
@@ -72,6 +73,11 @@ def enumerate_plans(
         return [ScanPlan.all_listening(w, n_tx, n_rx) for w in range(n_waveforms)]
     waveforms = [fixed_waveform] if kind == "subset" else list(range(n_waveforms))
     return [ScanPlan(np.full(n_tx, w, dtype=np.int64), s) for w in waveforms for s in subsets]
+
+
+def _scaled_cost(costs: FloatArray) -> FloatArray:
+    """Lookahead costs [m^2] as observation features: (log10(c + 1e-9) + 9) / 11 (module docstring)."""
+    return (np.log10(costs + LOOKAHEAD_FLOOR_M2) + 9.0) / 11.0
 
 
 class UWBSchedulingEnv(gym.Env):
@@ -166,6 +172,8 @@ class UWBSchedulingEnv(gym.Env):
         }
         if include_lookahead:
             parts["lookahead"] = spaces.Box(0.0, OBS_BOUND, (len(self.plans),), np.float32)
+            if receiver_warmup:
+                parts["lookahead_all_ready"] = spaces.Box(0.0, OBS_BOUND, (len(self.plans),), np.float32)
         if receiver_warmup:
             parts["ready_receivers"] = spaces.Box(0.0, 1.0, (sensor.n_rx,), np.float32)
         self._parts = parts
@@ -294,7 +302,13 @@ class UWBSchedulingEnv(gym.Env):
             prev[self._previous] = 1.0
         parts = {"tracks": feats, "previous_action": prev}
         if self.include_lookahead:
-            parts["lookahead"] = (np.log10(self.lookahead_costs() + LOOKAHEAD_FLOOR_M2) + 9.0) / 11.0
+            parts["lookahead"] = _scaled_cost(self.lookahead_costs())
+            if self.receiver_warmup:
+                k = self.sim.k + 1
+                t = k * self.cfg.sensing.scan_period_s
+                parts["lookahead_all_ready"] = _scaled_cost(
+                    lookahead_costs(self.sim.sensor, self.sim.tracker, self.plans, t, k)
+                )
         if self.receiver_warmup:
             parts["ready_receivers"] = self._ready_rx.astype(float)
         for name, v in parts.items():
