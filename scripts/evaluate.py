@@ -388,14 +388,20 @@ def plot(campaign: Campaign, runs: dict[str, list[dict[str, np.ndarray]]], out: 
 
 
 # ------------------------------------------------------------------------------------------------------- CLI
-def parse_overrides(items: Sequence[str]) -> dict[str, Any]:
-    """``["a.b=1", ...]`` -> ``{"a.b": 1}`` (values parsed as YAML)."""
+def parse_overrides(items: Sequence[str], flag: str = "--set") -> dict[str, Any]:
+    """``["a.b=1", ...]`` -> ``{"a.b": 1}``: values parsed as YAML, and ``1e-5`` (a string to YAML 1.1) as a float."""
     out = {}
     for item in items:
         key, sep, value = item.partition("=")
         if not sep or not key:
-            raise ValueError(f"--set {item!r}: must be KEY=VALUE, e.g. sensing.clutter.density_per_m2=0")
-        out[key] = yaml.safe_load(value)
+            raise ValueError(f"{flag} {item!r}: must be KEY=VALUE, e.g. sensing.clutter.density_per_m2=0")
+        parsed = yaml.safe_load(value)
+        if isinstance(parsed, str):
+            try:
+                parsed = float(parsed)
+            except ValueError:
+                pass
+        out[key] = parsed
     return out
 
 
@@ -425,7 +431,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         runs=args.runs,
         seed0=args.seed0,
         overrides=parse_overrides(args.overrides),
-        env_kwargs=parse_overrides(args.env_kwargs),
+        env_kwargs=parse_overrides(args.env_kwargs, "--env-kwarg"),
         title=preset.get("title", ""),
         reference=preset.get("reference", {}) if not args.schemes else {},
     )

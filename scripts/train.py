@@ -20,19 +20,15 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import yaml
-
 from agents.rl import ALGORITHMS, TrainConfig, train
+from scripts.evaluate import parse_overrides
 
 
 def _pairs(items: list[str], flag: str) -> dict:
-    out = {}
-    for item in items:
-        if "=" not in item:
-            raise SystemExit(f"{flag} {item!r}: expected KEY=VALUE")
-        k, v = item.split("=", 1)
-        out[k] = yaml.safe_load(v)
-    return out
+    try:
+        return parse_overrides(items, flag)
+    except ValueError as e:
+        raise SystemExit(str(e)) from None
 
 
 def main(argv: list[str] | None = None) -> None:

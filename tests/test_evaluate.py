@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from scripts.evaluate import Campaign, main, mean_ci, run_campaign, run_metrics, run_path, summarise
+from scripts.evaluate import Campaign, main, mean_ci, parse_overrides, run_campaign, run_metrics, run_path, summarise
 
 SMALL = {"n_scans": 12, "targets.1.birth_time_s": 1.0}
 
@@ -105,3 +105,11 @@ def test_command_line_prints_the_table(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "| fixed-0 | position RMSE [m] |" in out and "Paired differences against `fixed-3`" in out
     assert (tmp_path / "summary.md").read_text() in out
+
+
+def test_command_line_values_parse_as_yaml_and_floats():
+    got = parse_overrides(["a=1e-5", "b=true", "c.d=3", "e=parametric", "f=1.5e2", "g=[1, 2]"])
+    assert got == {"a": 1e-5, "b": True, "c.d": 3, "e": "parametric", "f": 150.0, "g": [1, 2]}
+    assert isinstance(got["a"], float) and isinstance(got["c.d"], int)
+    with pytest.raises(ValueError, match="--env-kwarg 'nokey'"):
+        parse_overrides(["nokey"], "--env-kwarg")
