@@ -96,7 +96,7 @@ def expected_posterior(
         return Pa
     cfg = tracker.cfg
     waveforms = np.array([p.waveform for p in plans])  # (A, T)
-    listening = np.array([p.active_rx for p in plans])  # (A, R)
+    listening = _listening(plans)
     pos = x[:, POSITION]
     for tx, rx in sensor.pairs.tolist():
         used = listening[:, rx] if delivering is None else delivering[:, :, rx].any(axis=1)
@@ -141,13 +141,17 @@ def lookahead_costs(
     if scored is None:
         return np.zeros(len(plans))
     x, P = scored.combined()
-    delivering = None if ready_rx is None else _delivering(plans, ready_rx[None], x.shape[0])
+    delivering = None if ready_rx is None else _delivering(_listening(plans), ready_rx[None], x.shape[0])
     return position_trace(expected_posterior(x, P, sensor, tracker, plans, q2, delivering)).mean(axis=1)
 
 
-def _delivering(plans: Sequence[ScanPlan], ready: BoolArray, n_tracks: int) -> BoolArray:
-    """``(A, B * N, R)``: plan a's listening receivers that are ready in kept sequence b (``ready`` ``(B, R)``)."""
-    listening = np.array([p.active_rx for p in plans])  # (A, R)
+def _listening(plans: Sequence[ScanPlan]) -> BoolArray:
+    """``(A, R)`` the receivers each plan listens with."""
+    return np.array([p.active_rx for p in plans])
+
+
+def _delivering(listening: BoolArray, ready: BoolArray, n_tracks: int) -> BoolArray:
+    """``(A, B * N, R)``: plan a's listening receivers ``(A, R)`` that are ready in kept sequence b (``(B, R)``)."""
     both = listening[:, None, None, :] & ready[None, :, None, :]  # (A, B, 1, R)
     A, B, _, R = both.shape
     return np.broadcast_to(both, (A, B, n_tracks, R)).reshape(A, B * n_tracks, R)
@@ -207,11 +211,11 @@ def sequence_costs(
     first = np.zeros(1, np.int64)  # per kept sequence: its first plan (none yet)
     cum = np.zeros(1)  # per kept sequence: its cost so far
     ready = None if ready_rx is None else np.asarray(ready_rx, bool)[None]  # (B, R) per kept sequence
-    listening = np.array([p.active_rx for p in plans])  # (A, R)
+    listening = _listening(plans)
     xs, Ps, mus = x[None], P[None], mu[None]  # (B, N, ...) per kept sequence
     for level in range(depth):
         B = cum.size
-        delivering = None if ready is None else _delivering(plans, ready, N)
+        delivering = None if ready is None else _delivering(listening, ready, N)
         Pa = expected_posterior(xs.reshape(B * N, 6), Ps.reshape(B * N, 6, 6), sensor, tracker, plans, q2, delivering)
         Pa = Pa.reshape(A, B, N, 6, 6)
         step = position_trace(Pa).mean(axis=-1)  # (A, B)

@@ -222,21 +222,20 @@ class UWBSchedulingEnv(gym.Env):
 
     def lookahead_costs(self) -> FloatArray:
         """Expected mean position-covariance trace [m^2] after the next scan for every action (pure)."""
-        k = self.sim.k + 1
-        period = self.cfg.sensing.scan_period_s
-        return lookahead_costs(self.sim.sensor, self.sim.tracker, self.plans, k * period, k, ready_rx=self.ready_rx)
+        return lookahead_costs(*self._next_scan(), ready_rx=self.ready_rx)
 
     def sequence_costs(self, depth: int, beam: int | None = None, discount: float = 1.0) -> FloatArray:
         """``(A,)`` the cheapest expected d-scan cost of the plan sequences starting with each action (pure).
 
         ``uwb_env.lookahead.sequence_costs`` on this env's tracker, sensor model and warm-up state.
         """
-        k = self.sim.k + 1
         period = self.cfg.sensing.scan_period_s
-        sim = self.sim
-        return sequence_costs(
-            sim.sensor, sim.tracker, self.plans, k * period, k, period, depth, beam, discount, ready_rx=self.ready_rx
-        )
+        return sequence_costs(*self._next_scan(), period, depth, beam, discount, ready_rx=self.ready_rx)
+
+    def _next_scan(self) -> tuple[Any, Any, list[ScanPlan], float, int]:
+        """The lookahead's arguments for the next scan: sensor, tracker, plans, its time [s] and index."""
+        k = self.sim.k + 1
+        return self.sim.sensor, self.sim.tracker, self.plans, k * self.cfg.sensing.scan_period_s, k
 
     # ----------------------------------------------------------------------------------------------- internals
     def _check_action(self, action: Any) -> int:
@@ -304,11 +303,7 @@ class UWBSchedulingEnv(gym.Env):
         if self.include_lookahead:
             parts["lookahead"] = _scaled_cost(self.lookahead_costs())
             if self.receiver_warmup:
-                k = self.sim.k + 1
-                t = k * self.cfg.sensing.scan_period_s
-                parts["lookahead_all_ready"] = _scaled_cost(
-                    lookahead_costs(self.sim.sensor, self.sim.tracker, self.plans, t, k)
-                )
+                parts["lookahead_all_ready"] = _scaled_cost(lookahead_costs(*self._next_scan()))
         if self.receiver_warmup:
             parts["ready_receivers"] = self._ready_rx.astype(float)
         for name, v in parts.items():

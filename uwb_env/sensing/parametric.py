@@ -44,7 +44,7 @@ from uwb_env.channel.coverage import blind_zone, in_field_of_view
 from uwb_env.channel.radar_equation import bistatic_radar_constant, direct_path_snr, leg_lengths
 from uwb_env.channel.rcs import rcs_fluctuation, swerling_weights
 from uwb_env.channel.walls import pair_obstruction
-from uwb_env.config import ScenarioConfig
+from uwb_env.config import ReceiverConfig, ScenarioConfig, TransmitterConfig
 from uwb_env.constants import SPEED_OF_LIGHT_MPS
 from uwb_env.rng import RngStreams
 from uwb_env.scene.layout import SceneLayout
@@ -53,7 +53,7 @@ from uwb_env.sensing.pd import detection_probability, threshold_from_pfa
 from uwb_env.sensing.records import Detections, ScanPlan
 from uwb_env.typing import BoolArray, FloatArray, IntArray
 from uwb_env.units import dbm_to_watts
-from uwb_env.waveforms.library import WaveformLibrary
+from uwb_env.waveforms.library import Waveform, WaveformLibrary
 
 _RESIDUE_NODES = 24  # Gauss-Laguerre nodes of the residue-level average (1e-4 in Pd: tests/unit/test_parametric.py)
 
@@ -93,6 +93,23 @@ class EpisodeGeometry:
 
 # Row layout of a detection inside the sensor (m = measurement dimension of the library):
 #   [pair index, z_0 .. z_{m-1}, azimuth, SNR, origin, clutter intensity, azimuth variance]
+def _link_budget(
+    wf: Waveform, tx: TransmitterConfig, rx: ReceiverConfig
+) -> tuple[float, float, float, float, float, float]:
+    """The link arguments the radar constant and the direct-path SNR share.
+
+    Scan energy [J], centre frequency and RMS bandwidth [Hz], Tx and Rx antenna gains [dB], Rx noise figure [dB].
+    """
+    return (
+        wf.scan_energy_j(dbm_to_watts(tx.power_dbm)),
+        wf.center_freq_hz,
+        wf.rms_bandwidth_hz,
+        tx.antenna_gain_db,
+        rx.antenna_gain_db,
+        rx.noise_figure_db,
+    )
+
+
 def _columns(m: int) -> dict[str, int]:
     return {"pair": 0, "z": 1, "az": 1 + m, "snr": 2 + m, "origin": 3 + m, "rho": 4 + m, "az_var": 5 + m, "n": 6 + m}
 
@@ -157,30 +174,14 @@ class ParametricSensor:
         # Radar constant per (waveform, tx, rx): the energy and spectrum of the waveform, the nodes' gains.
         self.radar_constant = self._per_link(
             lambda wf, tx, rx, _: bistatic_radar_constant(
-                wf.scan_energy_j(dbm_to_watts(tx.power_dbm)),
-                wf.center_freq_hz,
-                wf.rms_bandwidth_hz,
-                tx.antenna_gain_db,
-                rx.antenna_gain_db,
-                rx.noise_figure_db,
-                rx.array.n_elements if rx.array else 1,
-                cfg.channel,
+                *_link_budget(wf, tx, rx), rx.array.n_elements if rx.array else 1, cfg.channel
             )
         )
         # Direct-path SNR over each baseline (at least d0); with clutter_residue_ratio kappa the detector sees
         # SCNR = SNR / (1 + kappa SNR_dp X) (SensingConfig).
         d0 = np.maximum(lay.baselines, cfg.channel.reference_distance_m)
         self.direct_path_snr = self._per_link(
-            lambda wf, tx, rx, tr: direct_path_snr(
-                wf.scan_energy_j(dbm_to_watts(tx.power_dbm)),
-                wf.center_freq_hz,
-                wf.rms_bandwidth_hz,
-                tx.antenna_gain_db,
-                rx.antenna_gain_db,
-                rx.noise_figure_db,
-                d0[tr],
-                cfg.channel,
-            )
+            lambda wf, tx, rx, tr: direct_path_snr(*_link_budget(wf, tx, rx), d0[tr], cfg.channel)
         )
         kappa, looks = cfg.sensing.clutter_residue_ratio, cfg.sensing.clutter_residue_looks
         self._residue = kappa > 0.0
