@@ -6,8 +6,9 @@ combined), and for every candidate plan a:
 
     P_a <- P_pred
     for each formed pair (tx, rx) the plan uses, in the tracker's order:
-        H       = C^T P_pred^-1                         statistical linearisation of the unscented transform
-                                                         at the predicted state (action-independent, once per pair)
+        H       = C^T P_pred^-1                         statistical linearisation of the tracker's filter (the
+                                                         unscented transform; the Jacobian for the EKF) at the
+                                                         predicted state (action-independent, once per pair)
         R_a     = the waveform's covariance at the mean SNR of the predicted position (sensor model), DOA appended
         P_D,a   = the sensor model's detection probability there (capped like the tracker's)
         S       = H P_a H^T + R_a,   K = P_a H^T S^-1
@@ -19,7 +20,9 @@ Seed 003 evaluates (7) with the UKF covariance update (q_2 = 1, P_D = 1). We kee
 factor q_2 of PDA in clutter (Kershaw and Evans) as an argument: ``q2 = 1`` (the default) is the seed's
 clutter-free value. A calibrated q_2(P_D, clutter per gate) is not implemented yet.
 
-The whole computation is batched over plans x tracks (numpy), draws nothing and changes no state.
+The whole computation is batched over plans x tracks, draws nothing and changes no state. With the tracker's
+compiled back end each pair's update is one numba call (``tracking.compiled.expected_update``); the numpy
+``_expected_update`` is its reference.
 
 Deeper lookahead (``sequence_costs``): the same recursion over sequences of d plans, scan after scan,
 
@@ -46,8 +49,9 @@ import numpy as np
 
 from uwb_env.sensing.parametric import ParametricSensor
 from uwb_env.sensing.records import ScanPlan
+from uwb_env.tracking import compiled
 from uwb_env.tracking.imm import imm_combine, switch_probabilities
-from uwb_env.tracking.kernels import linearised_h, symmetrise, ukf_moments
+from uwb_env.tracking.kernels import ekf_moments, linearised_h, symmetrise, ukf_moments
 from uwb_env.tracking.measurement import angular_mask
 from uwb_env.tracking.tracker import Tracker, TrackSet
 from uwb_env.typing import BoolArray, FloatArray
@@ -91,6 +95,7 @@ def expected_posterior(
     listening receivers for every track); a pair updates only where its receiver delivers.
     """
     A, N = len(plans), x.shape[0]
+    x, P = np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(P, dtype=float)
     Pa = np.broadcast_to(P, (A, N, 6, 6)).copy()
     if N == 0:
         return Pa
@@ -103,8 +108,6 @@ def expected_posterior(
         if not used.any():
             continue
         names = sensor.measurement_names(rx)
-        _, _, C = ukf_moments(names, x, P, tracker.tx_pos[tx], tracker.rx_pos[rx], tracker.weights, angular_mask(names))
-        H = linearised_h(P, C)  # (N, m, 6)
         wf = waveforms[:, tx]
         pd = np.zeros((A, N))
         R = np.zeros((A, N, len(names), len(names)))
@@ -115,12 +118,41 @@ def expected_posterior(
         R[used] = R_w[which]
         if delivering is not None:
             pd = pd * delivering[:, :, rx]
-        PHt = Pa @ np.swapaxes(H, -1, -2)[None]  # (A, N, 6, m)
-        S = H[None] @ PHt + R
-        K = np.swapaxes(np.linalg.solve(S, np.swapaxes(PHt, -1, -2)), -1, -2)
-        gain = (q2 * pd)[..., None, None]
-        Pa = symmetrise(Pa - gain * (K @ np.swapaxes(PHt, -1, -2)))
+        tx_pos, rx_pos = tracker.tx_pos[tx], tracker.rx_pos[rx]
+        if tracker.backend == "compiled":
+            kinds, wm, wc, sigma_scale, use_ukf = tracker.compiled_filter_args(names)
+            if not compiled.expected_update(Pa, x, P, kinds, tx_pos, rx_pos, wm, wc, sigma_scale, use_ukf, R, q2 * pd):
+                raise np.linalg.LinAlgError("lookahead: a covariance is not positive definite")
+            continue
+        Pa = _expected_update(Pa, x, P, names, tx_pos, rx_pos, tracker, R, q2 * pd)
     return Pa
+
+
+def _expected_update(
+    Pa: FloatArray,
+    x: FloatArray,
+    P: FloatArray,
+    names: tuple[str, ...],
+    tx_pos: FloatArray,
+    rx_pos: FloatArray,
+    tracker: Tracker,
+    R: FloatArray,
+    gain: FloatArray,
+) -> FloatArray:
+    """One pair's expected update of ``Pa`` (A, N, 6, 6), numpy reference of ``compiled.expected_update``.
+
+    H is linearised at the predicted ``x (N, 6)``, ``P (N, 6, 6)`` by the tracker's filter; ``R (A, N, m, m)``,
+    ``gain (A, N)`` = q_2 P_D.
+    """
+    if tracker.cfg.filter == "ukf":
+        _, _, C = ukf_moments(names, x, P, tx_pos, rx_pos, tracker.weights, angular_mask(names))
+    else:
+        _, _, C = ekf_moments(names, x, P, tx_pos, rx_pos)
+    H = linearised_h(P, C)  # (N, m, 6)
+    PHt = Pa @ np.swapaxes(H, -1, -2)[None]  # (A, N, 6, m)
+    S = H[None] @ PHt + R
+    K = np.swapaxes(np.linalg.solve(S, np.swapaxes(PHt, -1, -2)), -1, -2)
+    return symmetrise(Pa - gain[..., None, None] * (K @ np.swapaxes(PHt, -1, -2)))
 
 
 def lookahead_costs(

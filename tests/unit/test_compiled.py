@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import gymnasium as gym
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import uwb_env  # noqa: F401  (registers the ids)
 from uwb_env import scenarios
 from uwb_env.config import apply_overrides
+from uwb_env.lookahead import _expected_update, lookahead_costs
 from uwb_env.rng import RngStreams
 from uwb_env.scene import sample_truth
 from uwb_env.sensing import ParametricSensor, ScanPlan
@@ -138,3 +141,50 @@ def test_weights_arrays_match_the_unscented_weights():
     np.testing.assert_array_equal(wm, w.mean)
     np.testing.assert_array_equal(wc, w.cov)
     assert scale == pytest.approx(np.sqrt(6.0))
+
+
+@pytest.mark.parametrize("filt", ["ukf", "ekf"])
+def test_expected_update_equals_the_numpy_lookahead(filt):
+    """The lookahead's compiled expected update against lookahead._expected_update (and a gain of 0 leaves P)."""
+    cfg = apply_overrides(scenarios.get("urban-intersection"), {"tracker.filter": filt})
+    lay = ParametricSensor(cfg).layout
+    tracker = Tracker(cfg.tracker, lay.tx_pos, lay.rx_pos, lay.area)
+    rng = np.random.default_rng(2)
+    A, N = 4, 5
+    x = np.column_stack([rng.uniform(-20, 20, N), rng.normal(size=N), rng.uniform(5, 30, N), rng.normal(size=N)])
+    x = np.column_stack([x, rng.normal(scale=0.1, size=(N, 2))])
+    P, Pa = _spd(rng, N, scale=0.05), _spd(rng, A, N, scale=0.05)
+    names = ("bistatic_range", "range_rate")
+    R = _spd(rng, A, N, n=2, scale=0.01)
+    gain = rng.uniform(0.0, 1.0, (A, N))
+    gain[1, 2] = 0.0
+    ref = _expected_update(Pa, x, P, names, lay.tx_pos[0], lay.rx_pos[1], tracker, R, gain)
+    got = Pa.copy()
+    kinds, wm, wc, scale, use_ukf = tracker.compiled_filter_args(names)
+    assert use_ukf == (filt == "ukf")
+    assert compiled.expected_update(got, x, P, kinds, lay.tx_pos[0], lay.rx_pos[1], wm, wc, scale, use_ukf, R, gain)
+    np.testing.assert_allclose(got, ref, rtol=1e-10, atol=1e-14)
+    np.testing.assert_array_equal(got[1, 2], Pa[1, 2])
+    assert np.all(
+        np.trace(got[..., [0, 2], :][..., [0, 2]], axis1=-2, axis2=-1)
+        < np.trace(Pa[..., [0, 2], :][..., [0, 2]], axis1=-2, axis2=-1) + 1e-15
+    )
+
+
+def test_lookahead_costs_agree_across_back_ends():
+    """Myopic costs mid-episode with the compiled and the numpy tracker back ends (same tracks)."""
+    env = gym.make("uwb_env/UrbanWaveform-v0").unwrapped
+    env.reset(seed=5)
+    for k in range(30):
+        env.step(k % 4)
+    k = env.sim.k + 1
+    t_s = k * env.cfg.sensing.scan_period_s
+    tracker = env.sim.tracker
+    fast = lookahead_costs(env.sim.sensor, tracker, env.plans, t_s, k)
+    tracker.backend = "numpy"
+    try:
+        ref = lookahead_costs(env.sim.sensor, tracker, env.plans, t_s, k)
+    finally:
+        tracker.backend = "compiled"
+    np.testing.assert_allclose(fast, ref, rtol=1e-10)
+    assert np.ptp(ref) > 1e-6 * ref.mean()  # the waveforms' costs differ: the check is not on equal numbers

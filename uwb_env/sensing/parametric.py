@@ -49,6 +49,7 @@ from uwb_env.constants import SPEED_OF_LIGHT_MPS
 from uwb_env.rng import RngStreams
 from uwb_env.scene.layout import SceneLayout
 from uwb_env.scene.truth import Truth
+from uwb_env.sensing.compiled import mean_link
 from uwb_env.sensing.pd import detection_probability, threshold_from_pfa
 from uwb_env.sensing.records import Detections, ScanPlan
 from uwb_env.typing import BoolArray, FloatArray, IntArray
@@ -231,6 +232,8 @@ class ParametricSensor:
         self._unit_chol_stack = np.stack(self._unit_chol) if self._all_unit_chol else None
         self._unit_cov_stack = np.stack(self._unit_cov) if self._all_unit_chol else None
         self._wavelengths = np.array([w.wavelength_m for w in self.library.waveforms])
+        self._unit_gain = np.ones((len(self.library), 1))  # no clutter residue: one node, gain 1
+        self._unit_weight = np.ones(1)
 
     def _per_link(self, fn) -> FloatArray:
         """``(W, T, R)`` array of ``fn(waveform, tx config, rx config, (t, r))`` over the library and node pairs."""
@@ -750,8 +753,53 @@ class ParametricSensor:
         """Mean-SNR link of pair (tx, rx) at ``positions`` (N, 2) for each of ``waveforms`` (W,).
 
         Returns ``(azimuth (N,), covered (N,), mean SNR (W, N), Pd (W, N))``: the geometry once, the radar
-        constant per waveform.
+        constant per waveform. One compiled pass (``sensing.compiled.mean_link``, the rules of ``_links``);
+        Swerling 0's Marcum Q is evaluated here on the returned SNR.
         """
+        lay, sens, ch = self.layout, self.cfg.sensing, self.cfg.channel
+        pos = np.ascontiguousarray(positions, dtype=float).reshape(-1, 2)
+        waveforms = np.asarray(waveforms, dtype=np.int64).reshape(-1)
+        if self._residue:
+            gain, weights = self.detection_gain[waveforms, tx, rx], self._residue_weights
+        else:
+            gain, weights = self._unit_gain[waveforms], self._unit_weight
+        az, ok, snr, pd = mean_link(
+            lay.tx_pos[tx],
+            lay.rx_pos[rx],
+            pos,
+            lay.wall_start,
+            lay.wall_end,
+            lay.wall_loss_db,
+            lay.wall_delay_s,
+            float(lay.rx_boresight_rad[rx]),
+            float(lay.rx_fov_rad[rx]),
+            sens.max_range_m,
+            float(self.baseline[tx, rx]),
+            sens.blind_zone_excess_m,
+            bool(self.pair_mask[tx, rx]),
+            ch.reference_distance_m,
+            ch.path_loss_exponent,
+            self.radar_constant[waveforms, tx, rx],
+            float(rcs_m2),
+            gain,
+            weights,
+            sens.false_alarm_probability,
+            int(swerling),
+        )
+        if swerling not in (1, 3):  # no compiled form: the numpy Pd on the compiled SNR
+            scnr = snr[..., None] * gain[:, None, :]
+            pd = np.where(
+                ok,
+                detection_probability(scnr.reshape(-1), sens.false_alarm_probability, swerling).reshape(scnr.shape)
+                @ weights,
+                0.0,
+            )
+        return az, ok, snr, pd
+
+    def _mean_link_reference(
+        self, tx: int, rx: int, positions: FloatArray, waveforms: IntArray, rcs_m2: float, swerling: int
+    ) -> tuple[FloatArray, BoolArray, FloatArray, FloatArray]:
+        """The numpy reference of :meth:`_mean_link` (``_links`` and ``detection_probability``), for the tests."""
         pos = np.asarray(positions, dtype=float).reshape(-1, 2)
         *_, az, covered, unit_snr = self._links(slice(tx, tx + 1), slice(rx, rx + 1), pos)
         ok = covered[0, 0]
@@ -789,16 +837,18 @@ class ParametricSensor:
         waveforms = np.asarray(waveforms, dtype=np.int64).reshape(-1)
         az, ok, snr, pd = self._mean_link(tx, rx, positions, waveforms, rcs_m2, swerling)
         safe = np.where(ok & (snr > 1.0), snr, 1.0)
-        R = [self.library[int(w)].covariance(safe[i]) for i, w in enumerate(waveforms)]  # the plans' few waveforms
+        if self._all_unit_chol:  # R = R(SNR = 1) / SNR (the CRLB models), every waveform at once
+            R = (1.0 / safe)[..., None, None] * self._unit_cov_stack[waveforms][:, None]
+        else:
+            R = np.stack([self.library[int(w)].covariance(safe[i]) for i, w in enumerate(waveforms)])
         if self._doa_rx[rx]:
             lay = self.layout
             off = _wrap(az - self._boresight[rx])
             n_el, spacing = lay.rx_n_elements[rx], lay.rx_spacing_m[rx]
-            R = [
-                _append_block(Ri, azimuth_variance(safe[i], n_el, spacing, self._wavelengths[w], off))
-                for i, (Ri, w) in enumerate(zip(R, waveforms.tolist(), strict=True))
-            ]
-        return pd, np.stack(R)
+            var = azimuth_variance(safe, n_el, spacing, self._wavelengths[waveforms][:, None], off)  # (W, N)
+            m = R.shape[-1] + 1
+            R = _append_block(R.reshape(-1, m - 1, m - 1), var.reshape(-1)).reshape(*var.shape, m, m)
+        return pd, R
 
     def measurement_names(self, rx: int) -> tuple[str, ...]:
         """Measurement components of receiver ``rx``'s detections."""

@@ -229,24 +229,17 @@ def combine(w, x, P):  # pragma: no cover - compiled
 
 # ------------------------------------------------------------------------------------------- receiver update
 @_jit
-def receiver_update(
-    x, P, mu, act, psi, pd, z, R, rho, kinds, tx, rx, wm, wc, sigma_scale, use_ukf, g2, pg, fixed_existence
-):  # pragma: no cover - compiled
-    """LMIPDA + PDA update of every track with one pair's detections (Tracker._update, numpy reference).
+def measurement_moments(x, P, act, kinds, tx, rx, wm, wc, sigma_scale, use_ukf):  # pragma: no cover - compiled
+    """Predicted-measurement moments of every track and active model (kernels.ukf_moments / ekf_moments).
 
-    Args:
-        x ``(N, r, 6)``, P ``(N, r, 6, 6)``, mu ``(N, r)``: updated in place for the models ``act`` ``(a,)``
-        (the active set); psi, pd ``(N,)``;
-        z ``(M, m)``, R ``(M, m, m)``, rho ``(M,)`` clutter intensities (floored); kinds ``(m,)`` codes;
-        tx, rx ``(2,)``; wm, wc ``(13,)`` unscented weights, sigma_scale = sqrt(n + lambda); use_ukf (else EKF);
-        g2 chi-square gate; pg gate probability; fixed_existence (PDA).
+    Args: x ``(N, r, 6)``, P ``(N, r, 6, 6)``, act ``(a,)`` the models to use; kinds ``(m,)``; tx, rx ``(2,)``;
+    wm, wc ``(13,)``, sigma_scale; use_ukf (else EKF).
 
-    Returns:
-        psi_post ``(N,)``, taken ``(M,)`` (owned with p > 1/2) -- x, P, mu are updated in place --
-        ok: False if some covariance was not positive definite (the caller raises).
+    Returns: z_hat ``(N, a, m)``, S0 ``(N, a, m, m)`` (without R), C ``(N, a, 6, m)`` the state-measurement
+    cross-covariance, ok (False if some P was not positive definite; its entries are left at 0).
     """
-    N, a = mu.shape[0], act.shape[0]
-    M, m = z.shape
+    N, a = x.shape[0], act.shape[0]
+    m = kinds.shape[0]
     n_sig = 2 * _NS + 1
     ok = True
     z_hat = np.zeros((N, a, m))
@@ -261,7 +254,6 @@ def receiver_update(
     for c in range(m):
         if kinds[c] == _ANGULAR:
             az = c
-    Y = np.empty((_NS, m))
     xl = np.empty((1, _NS))
     Pl = np.empty((_NS, _NS))
     for n in range(N):
@@ -332,6 +324,29 @@ def receiver_update(
                             acc += jac[c, s_] * C[n, r, s_, e]
                         S0[n, r, c, e] = acc
                         S0[n, r, e, c] = acc
+    return z_hat, S0, C, ok
+
+
+@_jit
+def receiver_update(
+    x, P, mu, act, psi, pd, z, R, rho, kinds, tx, rx, wm, wc, sigma_scale, use_ukf, g2, pg, fixed_existence
+):  # pragma: no cover - compiled
+    """LMIPDA + PDA update of every track with one pair's detections (Tracker._update, numpy reference).
+
+    Args:
+        x ``(N, r, 6)``, P ``(N, r, 6, 6)``, mu ``(N, r)``: updated in place for the models ``act`` ``(a,)``
+        (the active set); psi, pd ``(N,)``;
+        z ``(M, m)``, R ``(M, m, m)``, rho ``(M,)`` clutter intensities (floored); kinds ``(m,)`` codes;
+        tx, rx ``(2,)``; wm, wc ``(13,)`` unscented weights, sigma_scale = sqrt(n + lambda); use_ukf (else EKF);
+        g2 chi-square gate; pg gate probability; fixed_existence (PDA).
+
+    Returns:
+        psi_post ``(N,)``, taken ``(M,)`` (owned with p > 1/2) -- x, P, mu are updated in place --
+        ok: False if some covariance was not positive definite (the caller raises).
+    """
+    N, a = mu.shape[0], act.shape[0]
+    M, m = z.shape
+    z_hat, S0, C, ok = measurement_moments(x, P, act, kinds, tx, rx, wm, wc, sigma_scale, use_ukf)
 
     # gating and gate-truncated likelihood ratios
     lam = np.zeros((N, a, M))
@@ -440,6 +455,9 @@ def receiver_update(
     used = np.zeros(M + 1, np.bool_)
     H = np.empty((m, _NS))
     Cl = np.empty((_NS, m))
+    Pl = np.empty((_NS, _NS))
+    L = np.zeros((_NS, _NS))
+    Y = np.empty((_NS, m))
     xb = np.empty(_NS)
     Pb = np.empty((_NS, _NS))
     for n in range(N):
@@ -544,6 +562,83 @@ def receiver_update(
 
 
 # ------------------------------------------------------------------------------------------------- initiation
+@_jit
+def expected_update(Pa, x, P, kinds, tx, rx, wm, wc, sigma_scale, use_ukf, R, gain):  # pragma: no cover - compiled
+    """Expected PDA posterior covariances of the lookahead (lookahead.expected_posterior), one pair, in place.
+
+    Args:
+        Pa ``(A, N, 6, 6)``: every plan's covariances so far, updated in place;
+        x ``(N, 6)``, P ``(N, 6, 6)``: the predicted combined estimates, where H = C^T P^-1 is linearised
+        (measurement_moments, kernels.linearised_h); kinds, tx, rx, wm, wc, sigma_scale, use_ukf as there;
+        R ``(A, N, m, m)`` the plans' measurement covariances; gain ``(A, N)`` = q_2 P_D (0: no update).
+
+    Per (a, n): S = H Pa H^T + R, K = Pa H^T S^-1, Pa <- sym(Pa - gain K S K^T) (K S K^T = K (Pa H^T)^T).
+    Returns ok (False if some P or S was not positive definite).
+    """
+    A, N = Pa.shape[0], Pa.shape[1]
+    m = kinds.shape[0]
+    _, _, C, ok = measurement_moments(
+        x.reshape(N, 1, _NS),
+        P.reshape(N, 1, _NS, _NS),
+        np.zeros(1, np.int64),
+        kinds,
+        tx,
+        rx,
+        wm,
+        wc,
+        sigma_scale,
+        use_ukf,
+    )
+    L = np.zeros((_NS, _NS))
+    Ls = np.zeros((m, m))
+    Cl = np.empty((_NS, m))
+    Y = np.empty((_NS, m))
+    H = np.empty((m, _NS))
+    PHt = np.empty((_NS, m))
+    PHtT = np.empty((m, _NS))
+    Sm = np.empty((m, m))
+    Kt = np.empty((m, _NS))
+    for n in range(N):
+        if not _cholesky(P[n], L):
+            return False
+        for s_ in range(_NS):
+            for c in range(m):
+                Cl[s_, c] = C[n, 0, s_, c]
+        _chol_solve(L, Cl, Y)  # P^-1 C
+        for c in range(m):
+            for s_ in range(_NS):
+                H[c, s_] = Y[s_, c]
+        for a in range(A):
+            g = gain[a, n]
+            if g == 0.0:
+                continue
+            for s_ in range(_NS):
+                for c in range(m):
+                    acc = 0.0
+                    for t in range(_NS):
+                        acc += Pa[a, n, s_, t] * H[c, t]
+                    PHt[s_, c] = acc
+                    PHtT[c, s_] = acc
+            for c in range(m):
+                for e in range(m):
+                    acc = R[a, n, c, e]
+                    for t in range(_NS):
+                        acc += H[c, t] * PHt[t, e]
+                    Sm[c, e] = acc
+            if not _cholesky(Sm, Ls):
+                return False
+            _chol_solve(Ls, PHtT, Kt)  # K^T = S^-1 (P H^T)^T
+            for s_ in range(_NS):
+                for t in range(s_ + 1):
+                    acc = 0.0
+                    for c in range(m):
+                        acc += PHt[s_, c] * Kt[c, t] + PHt[t, c] * Kt[c, s_]
+                    v = 0.5 * ((Pa[a, n, s_, t] + Pa[a, n, t, s_]) - g * acc)
+                    Pa[a, n, s_, t] = v
+                    Pa[a, n, t, s_] = v
+    return ok
+
+
 @_jit
 def _inv2(a, b, c):  # pragma: no cover - compiled
     """Inverse of the symmetric [[a, b], [b, c]] as its (a, b, c)."""

@@ -356,13 +356,17 @@ class Tracker:
         taken[cols] = owned > 0.5
         return taken
 
-    def _update_compiled(self, det: Detections, a: IntArray, tx: FloatArray, rx: FloatArray) -> BoolArray:
-        """``_update`` with the fused compiled kernel (``compiled.receiver_update``)."""
-        cfg, t = self.cfg, self.tracks
-        names = det.measurement_names
+    def compiled_filter_args(self, names: tuple[str, ...]) -> tuple[np.ndarray, FloatArray, FloatArray, float, bool]:
+        """``(kinds, wm, wc, sigma_scale, use_ukf)``: the measurement and filter arguments of the compiled kernels."""
         kinds = self._kinds.get(names)
         if kinds is None:
             kinds = self._kinds[names] = compiled.kind_codes(names)
+        return kinds, self._wm, self._wc, self._sigma_scale, self.cfg.filter == "ukf"
+
+    def _update_compiled(self, det: Detections, a: IntArray, tx: FloatArray, rx: FloatArray) -> BoolArray:
+        """``_update`` with the fused compiled kernel (``compiled.receiver_update``)."""
+        cfg, t = self.cfg, self.tracks
+        kinds, wm, wc, sigma_scale, use_ukf = self.compiled_filter_args(det.measurement_names)
         psi, taken, ok = compiled.receiver_update(  # x, P, mu updated in place
             t.x,
             t.P,
@@ -376,11 +380,11 @@ class Tracker:
             kinds,
             tx,
             rx,
-            self._wm,
-            self._wc,
-            self._sigma_scale,
-            cfg.filter == "ukf",
-            self._gates[len(names)],
+            wm,
+            wc,
+            sigma_scale,
+            use_ukf,
+            self._gates[len(det.measurement_names)],
             cfg.gate_probability,
             cfg.fixed_existence,
         )

@@ -1,0 +1,51 @@
+"""The compiled sensor-model link (``sensing.compiled.mean_link``) against the numpy reference, to rounding error."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from uwb_env import scenarios
+from uwb_env.sensing import ParametricSensor
+
+
+def _points(sensor: ParametricSensor, n: int, seed: int) -> np.ndarray:
+    """Random points over the area and a margin around it, plus the nodes themselves and points next to them."""
+    rng = np.random.default_rng(seed)
+    a, lay = sensor.layout.area, sensor.layout
+    pos = np.column_stack([rng.uniform(a[0] - 5, a[1] + 5, n), rng.uniform(a[2] - 5, a[3] + 5, n)])
+    nodes = np.vstack([lay.tx_pos, lay.rx_pos])
+    return np.vstack([pos, nodes, nodes + 0.05, nodes + rng.normal(scale=0.5, size=nodes.shape)])
+
+
+@pytest.mark.parametrize("scenario", scenarios.names())
+@pytest.mark.parametrize("swerling", [0, 1, 3])
+def test_mean_link_equals_the_numpy_reference(scenario, swerling):
+    """Coverage identical (walls, blind zone, field of view, range limits), SNR and Pd to rounding, every pair."""
+    sensor = ParametricSensor(scenarios.get(scenario))
+    pos = _points(sensor, 1500, seed=3)
+    waveforms = np.arange(len(sensor.library))
+    covered = 0
+    for t in range(sensor.n_tx):
+        for r in range(sensor.n_rx):
+            az, ok, snr, pd = sensor._mean_link(t, r, pos, waveforms, 1.7, swerling)
+            az0, ok0, snr0, pd0 = sensor._mean_link_reference(t, r, pos, waveforms, 1.7, swerling)
+            np.testing.assert_array_equal(ok, ok0)
+            np.testing.assert_allclose(az, az0, rtol=1e-14, atol=1e-15)
+            np.testing.assert_allclose(snr, snr0, rtol=1e-13, atol=0)
+            np.testing.assert_allclose(pd, pd0, rtol=1e-13, atol=1e-300)
+            covered += int(ok.sum())
+    assert covered > 0.05 * pos.shape[0]  # the comparison saw covered points, not only zeros
+
+
+def test_the_clutter_residue_is_averaged_in_the_compiled_pd():
+    """indoor-rsn has a clutter residue: Pd is E_X[Pd(SCNR)], below the residue-free Pd at high SNR."""
+    sensor = ParametricSensor(scenarios.get("indoor-rsn"))
+    assert sensor._residue
+    pos = _points(sensor, 400, seed=5)
+    t, r = (int(v) for v in sensor.pairs[0])
+    _, ok, snr, pd = sensor._mean_link(t, r, pos, np.array([0]), 1.0, 1)
+    free = np.exp(np.log(sensor.cfg.sensing.false_alarm_probability) / (1.0 + snr))  # Swerling I, no residue
+    assert ok.any()
+    assert np.all(pd[:, ok] <= free[:, ok] + 1e-15)
+    assert np.any(pd[:, ok] < free[:, ok] - 1e-3)
