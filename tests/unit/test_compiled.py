@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 import uwb_env  # noqa: F401  (registers the ids)
 from uwb_env import scenarios
 from uwb_env.config import apply_overrides
-from uwb_env.lookahead import _expected_update, lookahead_costs
+from uwb_env.lookahead import _expected_update, _ReductionModel, lookahead_costs
 from uwb_env.rng import RngStreams
 from uwb_env.scene import sample_truth
 from uwb_env.sensing import ParametricSensor, ScanPlan
@@ -143,9 +143,9 @@ def test_weights_arrays_match_the_unscented_weights():
     assert scale == pytest.approx(np.sqrt(6.0))
 
 
-@pytest.mark.parametrize("filt", ["ukf", "ekf"])
-def test_expected_update_equals_the_numpy_lookahead(filt):
-    """The lookahead's compiled expected update against lookahead._expected_update (and a gain of 0 leaves P)."""
+@pytest.mark.parametrize(("filt", "q2"), [("ukf", 0.7), ("ekf", 1.0), ("ukf", "pda"), ("ekf", "pda")])
+def test_expected_update_equals_the_numpy_lookahead(filt, q2):
+    """The lookahead's compiled expected update against lookahead._expected_update (and P_D = 0 leaves P)."""
     cfg = apply_overrides(scenarios.get("urban-intersection"), {"tracker.filter": filt})
     lay = ParametricSensor(cfg).layout
     tracker = Tracker(cfg.tracker, lay.tx_pos, lay.rx_pos, lay.area)
@@ -156,13 +156,16 @@ def test_expected_update_equals_the_numpy_lookahead(filt):
     P, Pa = _spd(rng, N, scale=0.05), _spd(rng, A, N, scale=0.05)
     names = ("bistatic_range", "range_rate")
     R = _spd(rng, A, N, n=2, scale=0.01)
-    gain = rng.uniform(0.0, 1.0, (A, N))
-    gain[1, 2] = 0.0
-    ref = _expected_update(Pa, x, P, names, lay.tx_pos[0], lay.rx_pos[1], tracker, R, gain)
+    pd = rng.uniform(0.0, 1.0, (A, N))
+    pd[1, 2] = 0.0
+    rho = 10.0 ** rng.uniform(-3, 1, (A, N))  # from almost no clutter to several false alarms per gate
+    model = _ReductionModel(q2, 2, cfg.tracker.gate_probability)
+    ref = _expected_update(Pa, x, P, names, lay.tx_pos[0], lay.rx_pos[1], tracker, R, pd, model, rho)
     got = Pa.copy()
     kinds, wm, wc, scale, use_ukf = tracker.compiled_filter_args(names)
     assert use_ukf == (filt == "ukf")
-    assert compiled.expected_update(got, x, P, kinds, lay.tx_pos[0], lay.rx_pos[1], wm, wc, scale, use_ukf, R, gain)
+    args = (kinds, lay.tx_pos[0], lay.rx_pos[1], wm, wc, scale, use_ukf, R, pd, *model.compiled_args(rho))
+    assert compiled.expected_update(got, x, P, *args)
     np.testing.assert_allclose(got, ref, rtol=1e-10, atol=1e-14)
     np.testing.assert_array_equal(got[1, 2], Pa[1, 2])
     assert np.all(

@@ -43,7 +43,7 @@ from gymnasium import spaces
 
 from uwb_env import scenarios
 from uwb_env.config import ScenarioConfig, apply_overrides
-from uwb_env.lookahead import lookahead_costs, sequence_costs
+from uwb_env.lookahead import check_q2, lookahead_costs, sequence_costs
 from uwb_env.metrics import assign, ospa
 from uwb_env.sensing.records import ScanPlan
 from uwb_env.sim import ScanResult, Simulator
@@ -94,6 +94,9 @@ class UWBSchedulingEnv(gym.Env):
         missed_target_penalty_m2, cover_gate_m, energy_cost_per_j: reward terms (module docstring).
         receiver_warmup: a receiver delivers only if it listened in the previous scan (module docstring); the
             observation then ends with the ready receivers (0/1 per receiver).
+        lookahead_q2: the lookahead's information-reduction factor: 1 (seed 003's clutter-free update, the
+            default), another constant in (0, 1], or ``"pda"`` for q_2(P_D, clutter in the gate) of PDA
+            (``uwb_env.tracking.reduction``).
         render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
     """
 
@@ -113,6 +116,7 @@ class UWBSchedulingEnv(gym.Env):
         cover_gate_m: float = 5.0,
         energy_cost_per_j: float = 0.0,
         receiver_warmup: bool = False,
+        lookahead_q2: float | str = 1.0,
         render_mode: str | None = None,
         **overrides: Any,
     ) -> None:
@@ -148,6 +152,8 @@ class UWBSchedulingEnv(gym.Env):
         if not isinstance(receiver_warmup, bool):
             raise ValueError(f"receiver_warmup={receiver_warmup!r}: must be True or False")
         self.receiver_warmup = receiver_warmup
+        check_q2(lookahead_q2)
+        self.lookahead_q2 = lookahead_q2
         self.render_mode = render_mode
         self.action_space = spaces.Discrete(len(self.plans))
         self.n_models = self.sim.tracker.r
@@ -222,7 +228,7 @@ class UWBSchedulingEnv(gym.Env):
 
     def lookahead_costs(self) -> FloatArray:
         """Expected mean position-covariance trace [m^2] after the next scan for every action (pure)."""
-        return lookahead_costs(*self._next_scan(), ready_rx=self.ready_rx)
+        return lookahead_costs(*self._next_scan(), q2=self.lookahead_q2, ready_rx=self.ready_rx)
 
     def sequence_costs(self, depth: int, beam: int | None = None, discount: float = 1.0) -> FloatArray:
         """``(A,)`` the cheapest expected d-scan cost of the plan sequences starting with each action (pure).
@@ -230,7 +236,9 @@ class UWBSchedulingEnv(gym.Env):
         ``uwb_env.lookahead.sequence_costs`` on this env's tracker, sensor model and warm-up state.
         """
         period = self.cfg.sensing.scan_period_s
-        return sequence_costs(*self._next_scan(), period, depth, beam, discount, ready_rx=self.ready_rx)
+        return sequence_costs(
+            *self._next_scan(), period, depth, beam, discount, q2=self.lookahead_q2, ready_rx=self.ready_rx
+        )
 
     def _next_scan(self) -> tuple[Any, Any, list[ScanPlan], float, int]:
         """The lookahead's arguments for the next scan: sensor, tracker, plans, its time [s] and index."""
@@ -303,7 +311,7 @@ class UWBSchedulingEnv(gym.Env):
         if self.include_lookahead:
             parts["lookahead"] = _scaled_cost(self.lookahead_costs())
             if self.receiver_warmup:
-                parts["lookahead_all_ready"] = _scaled_cost(lookahead_costs(*self._next_scan()))
+                parts["lookahead_all_ready"] = _scaled_cost(lookahead_costs(*self._next_scan(), q2=self.lookahead_q2))
         if self.receiver_warmup:
             parts["ready_receivers"] = self._ready_rx.astype(float)
         for name, v in parts.items():

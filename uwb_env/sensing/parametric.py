@@ -850,16 +850,39 @@ class ParametricSensor:
             R = _append_block(R.reshape(-1, m - 1, m - 1), var.reshape(-1)).reshape(*var.shape, m, m)
         return pd, R
 
+    def clutter_intensity_at(self, tx: int, rx: int, z: FloatArray, R: FloatArray) -> FloatArray:
+        """The known clutter map ``(W, N)`` of pair (tx, rx) at measurements ``z`` (N, m) [measurement units].
+
+        ``R`` ``(W, N, m, m)``: the measurement covariances of W waveforms there (columns ``measurement_names(rx)``);
+        the same map as the detections' ``clutter_intensity`` (module docstring, item 6), e.g. at a track's
+        predicted measurement for the lookahead's clutter-dependent q_2.
+        """
+        p = self._formed_pair(tx, rx)
+        m, (W, N) = self._m, R.shape[:2]
+        col = _columns(m)
+        rows = np.zeros((W * N, col["n"]))
+        rows[:, col["pair"]] = p
+        rows[:, 1 : 1 + m] = np.tile(z[:, :m], (W, 1))
+        if self._doa_rx[rx]:
+            rows[:, col["az"]] = np.tile(z[:, m], W)
+        Rf = R.reshape(W * N, *R.shape[2:])
+        ridge, rdot_var = (Rf[:, 0, 1] / Rf[:, 1, 1], Rf[:, 1, 1]) if m == 2 else (0.0, None)
+        return self._clutter_intensity(rows, ridge, rdot_var).reshape(W, N)
+
     def measurement_names(self, rx: int) -> tuple[str, ...]:
         """Measurement components of receiver ``rx``'s detections."""
         return self._names[rx]
 
     def range_density(self, tx: int, rx: int) -> tuple[FloatArray, FloatArray]:
         """The pair's clutter density in bistatic range: bin edges ``(n + 1,)`` [m], density ``(n,)`` [1/m]."""
-        p = int(self._pair_of_key[tx * self.n_rx + rx])
+        return self._range_edges, self._range_table[self._formed_pair(tx, rx), 1:-1]
+
+    def _formed_pair(self, tx: int, rx: int) -> int:
+        """Index of the formed pair (tx, rx) in ``pairs``; a clear error for any other (tx, rx)."""
+        p = int(self._pair_of_key[tx * self.n_rx + rx]) if 0 <= tx < self.n_tx and 0 <= rx < self.n_rx else -1
         if p < 0:
             raise ValueError(f"pair (tx={tx}, rx={rx}) is not a formed radar pair of {self.cfg.name!r}")
-        return self._range_edges, self._range_table[p, 1:-1]
+        return p
 
     @property
     def expected_clutter(self) -> FloatArray:

@@ -563,16 +563,42 @@ def receiver_update(
 
 # ------------------------------------------------------------------------------------------------- initiation
 @_jit
-def expected_update(Pa, x, P, kinds, tx, rx, wm, wc, sigma_scale, use_ukf, R, gain):  # pragma: no cover - compiled
+def _read_table(table, grid, pd, log_lam):  # pragma: no cover - compiled
+    """Bilinear read of a q_2 table at (pd, log(1 + lambda)), edges held (reduction.interpolate).
+
+    grid = (first P_D, P_D step, log(1 + lambda) step) of the table (reduction.table_grid).
+    """
+    n_p, n_l = table.shape
+    fi = min(max((pd - grid[0]) / grid[1], 0.0), n_p - 1.0)
+    fj = min(max(log_lam / grid[2], 0.0), n_l - 1.0)
+    i0 = min(int(fi), n_p - 2)
+    j0 = min(int(fj), n_l - 2)
+    a, b = fi - i0, fj - j0
+    return (
+        (1 - a) * (1 - b) * table[i0, j0]
+        + a * (1 - b) * table[i0 + 1, j0]
+        + (1 - a) * b * table[i0, j0 + 1]
+        + a * b * table[i0 + 1, j0 + 1]
+    )
+
+
+@_jit
+def expected_update(
+    Pa, x, P, kinds, tx, rx, wm, wc, sigma_scale, use_ukf, R, pd, q2, rho, table, grid, gate_volume
+):  # pragma: no cover - compiled
     """Expected PDA posterior covariances of the lookahead (lookahead.expected_posterior), one pair, in place.
 
     Args:
         Pa ``(A, N, 6, 6)``: every plan's covariances so far, updated in place;
         x ``(N, 6)``, P ``(N, 6, 6)``: the predicted combined estimates, where H = C^T P^-1 is linearised
         (measurement_moments, kernels.linearised_h); kinds, tx, rx, wm, wc, sigma_scale, use_ukf as there;
-        R ``(A, N, m, m)`` the plans' measurement covariances; gain ``(A, N)`` = q_2 P_D (0: no update).
+        R ``(A, N, m, m)`` the plans' measurement covariances; pd ``(A, N)`` detection probabilities (0: no
+        update); q2: the information-reduction factor, a constant unless ``table`` (tracking.reduction, shape
+        ``(len(PD_GRID), len(LOG_LAMBDA_GRID))``, on ``grid``) is non-empty: then q_2(P_D, lambda_G) with the
+        expected false measurements in the gate lambda_G = rho gate_volume |S|^(1/2), rho ``(A, N)`` the clutter
+        density at the predicted measurement and gate_volume = c_m gamma^(m/2).
 
-    Per (a, n): S = H Pa H^T + R, K = Pa H^T S^-1, Pa <- sym(Pa - gain K S K^T) (K S K^T = K (Pa H^T)^T).
+    Per (a, n): S = H Pa H^T + R, K = Pa H^T S^-1, Pa <- sym(Pa - q_2 P_D K S K^T) (K S K^T = K (Pa H^T)^T).
     Returns ok (False if some P or S was not positive definite).
     """
     A, N = Pa.shape[0], Pa.shape[1]
@@ -609,8 +635,7 @@ def expected_update(Pa, x, P, kinds, tx, rx, wm, wc, sigma_scale, use_ukf, R, ga
             for s_ in range(_NS):
                 H[c, s_] = Y[s_, c]
         for a in range(A):
-            g = gain[a, n]
-            if g == 0.0:
+            if pd[a, n] == 0.0:
                 continue
             for s_ in range(_NS):
                 for c in range(m):
@@ -627,6 +652,12 @@ def expected_update(Pa, x, P, kinds, tx, rx, wm, wc, sigma_scale, use_ukf, R, ga
                     Sm[c, e] = acc
             if not _cholesky(Sm, Ls):
                 return False
+            g = pd[a, n] * q2
+            if table.shape[0] > 0:
+                sqrt_det = 1.0
+                for c in range(m):
+                    sqrt_det *= Ls[c, c]
+                g = pd[a, n] * _read_table(table, grid, pd[a, n], math.log1p(rho[a, n] * gate_volume * sqrt_det))
             _chol_solve(Ls, PHtT, Kt)  # K^T = S^-1 (P H^T)^T
             for s_ in range(_NS):
                 for t in range(s_ + 1):
