@@ -17,7 +17,9 @@ these points: kappa, m and the detector's effective Pfa minimise the largest Pd 
 SNR (pairs pooled, the model averaged over them; grid search, the objective being a maximum). The report gives
 them, the largest |Pd difference| with the binomial std of the measured points, and the ToA-spread ratio. The
 scenario's defaults (``sensing.clutter_residue_ratio``, ``clutter_residue_looks`` and
-``sensing.false_alarm_probability`` of ``uwb_env/scenarios/indoor_rsn.py``) are the values this script fits.
+``sensing.false_alarm_probability`` of ``uwb_env/scenarios/indoor_rsn.py``) are the values this script fits; those
+of ``indoor_monostatic.py`` come from ``--scenario indoor-monostatic --snr-db 4 34 2 --log-pfa -12 -2 --log-kappa -9
+-2.5`` (its echoes are 20 dB weaker, its detector's transition lies lower and is steeper).
 Writes calibration.md, pd.png and toa_spread.png.
 """
 
@@ -25,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -59,6 +62,7 @@ def measure(sensor: SignalSensor, waveform: int, snr_db: float, n_scans: int, ex
             np.full(per, ep.reference_toa[waveform, p]),
             np.full(per, ep.reference_peak[waveform, p]),
             np.full(per, p),
+            np.broadcast_to(ep.reference_scan[waveform, p], x.shape),
         )
         err = ranges - (sensor.baseline[p] + excess_m)
         hit = np.abs(err) < HIT_M
@@ -109,6 +113,12 @@ def main() -> None:
         help="residue looks m tried (0: constant residue)",
     )
     ap.add_argument("--snr-db", nargs=3, type=float, default=(20.0, 56.0, 2.0), metavar=("FROM", "TO", "STEP"))
+    ap.add_argument(
+        "--log-pfa", nargs=2, type=float, default=(-8.0, -2.0), metavar=("FROM", "TO"), help="Pfa grid, 0.5 steps"
+    )
+    ap.add_argument(
+        "--log-kappa", nargs=2, type=float, default=(-6.0, -2.5), metavar=("FROM", "TO"), help="kappa grid, 0.05 steps"
+    )
     args = ap.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     base = scenarios.get(args.scenario)
@@ -134,8 +144,8 @@ def main() -> None:
     candidates = [
         (worst(lk, 10.0**lp, quads[m]), lk, 10.0**lp, m)
         for m in args.looks
-        for lp in np.arange(-8.0, -1.99, 0.5)
-        for lk in np.arange(-6.0, -2.5, 0.05)
+        for lp in np.arange(args.log_pfa[0], args.log_pfa[1] + 0.01, 0.5)
+        for lk in np.arange(args.log_kappa[0], args.log_kappa[1], 0.05)
     ]
     _, lk0, pfa, looks = min(candidates)
     fine = [(worst(lk, pfa, quads[looks]), lk) for lk in np.arange(lk0 - 0.05, lk0 + 0.05, 0.002)]
@@ -161,7 +171,7 @@ def main() -> None:
         f"# Calibration of the parametric sensor model on the signal path ({args.scenario})",
         "",
         f"{args.scans} scans per cell over {P} pairs, echo {args.excess} m beyond the baseline.",
-        f"Command: `python scripts/calibrate_parametric.py --scenario {args.scenario} --scans {args.scans}`",
+        f"Command: `python scripts/calibrate_parametric.py {' '.join(sys.argv[1:])}`",
         "",
         f"* fitted: clutter residue ratio kappa = {kappa:.4g} (log10 {log_kappa:.3f}), residue looks {looks:g}, "
         f"detector Pfa {pfa:.3g} (the scenario's: kappa {base.sensing.clutter_residue_ratio:g}, looks "

@@ -89,7 +89,12 @@ def test_high_snr_toa_spread_is_within_30_percent_of_the_crlb(sensor):
     scans = sensor.controlled_scans(rng, p, w, excess, np.full(B, snr))
     ref = np.broadcast_to(ep.reference[w, p], scans.shape)
     *_, (row, _, _, _), ranges = sensor.in_sensor(
-        scans, ref, np.full(B, ep.reference_toa[w, p]), np.full(B, ep.reference_peak[w, p]), np.full(B, p)
+        scans,
+        ref,
+        np.full(B, ep.reference_toa[w, p]),
+        np.full(B, ep.reference_peak[w, p]),
+        np.full(B, p),
+        np.broadcast_to(ep.reference_scan[w, p], scans.shape),
     )
     err = ranges - (sensor.baseline[p] + excess)
     hit = np.abs(err) < 0.3
@@ -159,3 +164,86 @@ def test_range_output_hands_each_pairs_toas_to_the_tracker():
     all_rx = ScanPlan.all_listening(0, 1, 6)
     rmse = [run_episode(sim, seed, lambda k: all_rx, 2.0).rmse() for seed in range(2)]
     assert max(rmse) < 0.05
+
+
+MONO = scenarios.get("indoor-monostatic", **{"sensing.fidelity": "signal"})
+
+
+@pytest.fixture(scope="module")
+def mono() -> SignalSensor:
+    return SignalSensor(MONO)
+
+
+def _mono_chain(sensor: SignalSensor, ep, scans: np.ndarray, p: int, w: int = 0):
+    B = scans.shape[0]
+    return sensor.in_sensor(
+        scans,
+        np.broadcast_to(ep.reference[w, p], scans.shape),
+        np.full(B, ep.reference_toa[w, p]),
+        np.full(B, ep.reference_peak[w, p]),
+        np.full(B, p),
+        np.broadcast_to(ep.reference_scan[w, p], scans.shape),
+    )
+
+
+def test_coherent_background_removes_the_leakage_and_the_multipath(mono):
+    """Empty monostatic scans: the raw difference is noise plus the 0.5 % multipath fluctuation; the envelope
+    difference of seed 000 leaves a residue proportional to the 70 dB leakage and its multipath."""
+    rng = np.random.default_rng(1)
+    rngs = RngStreams.from_seed(1)
+    ep = mono.new_episode(sample_truth(MONO, rngs.truth, mono.layout), rngs)
+    p, B = 3, 50
+    empty = mono.controlled_scans(rng, p, 0, 3.0, np.zeros(B))
+    _, d_coherent, *_ = _mono_chain(mono, ep, empty, p)
+    envelope_cfg = scenarios.get(
+        "indoor-monostatic", **{"sensing.fidelity": "signal", "sensing.signal.background": "empty_room"}
+    )
+    envelope = SignalSensor(envelope_cfg)
+    _, d_envelope, *_ = envelope.in_sensor(
+        empty,
+        np.broadcast_to(ep.reference[0, p], empty.shape),
+        np.full(B, ep.reference_toa[0, p]),
+        np.full(B, ep.reference_peak[0, p]),
+        np.full(B, p),
+    )
+    # noise-level difference (the envelope of unit noise has mean ~1) against a residue hundreds of times larger
+    assert np.median(d_coherent.max(axis=1)) < 30.0  # measured ~13
+    assert np.median(d_envelope.max(axis=1)) > 300.0  # measured ~1,000-3,000
+    with pytest.raises(ValueError, match="coherent"):
+        mono.in_sensor(empty, empty, np.zeros(B), np.zeros(B), np.full(B, p))
+
+
+def test_coherent_chain_detects_a_weak_echo_and_drops_a_shadowed_path(mono):
+    """An echo of 22 dB between two multipaths is found; a multipath cut by 20 dB (a person on its leg) lowers the
+    envelope there and leaves no detection (the rectification rule), though its raw difference is the path's whole
+    amplitude.
+
+    The rule's price: an echo on top of a multipath (delays 4 ns = 1.2 m apart here) whose carrier phase lowers the
+    envelope is dropped too, about half of the echoes within a pulse width of a path (measured Pd 0.5 at 6.0 m
+    excess, 22 dB; 0.98-1.0 at 2, 3, 4 and 8 m)."""
+    rng = np.random.default_rng(2)
+    rngs = RngStreams.from_seed(2)
+    ep = mono.new_episode(sample_truth(MONO, rngs.truth, mono.layout), rngs)
+    p, B, excess = 5, 200, 3.0
+    scans = mono.controlled_scans(rng, p, 0, excess, np.full(B, 10.0**2.2))
+    *_, (row, _, _, _), ranges = _mono_chain(mono, ep, scans, p)
+    hit = np.abs(ranges - excess) < 0.3
+    assert np.unique(row[hit]).size >= 0.9 * B  # measured 0.97-1.0 over the pairs (binomial std 0.01)
+    # the strongest multipath (first, 4 ns = 1.2 m beyond the leakage) shadowed by 20 dB in every scan
+    path = 1 + int(np.argmax(mono.path_amplitude[p, 1:]))
+    cut = mono.path_waveforms[p, path] * mono.path_amplitude[p, path] * (1.0 - 10.0 ** (-20.0 / 20.0))
+    shadowed = mono.controlled_scans(rng, p, 0, excess, np.zeros(B)) - math.sqrt(2.0 * mono.dp_snr[0, p]) * cut
+    *_, ranges_s = _mono_chain(mono, ep, shadowed, p)
+    path_range = 299_792_458.0 * mono.path_delay_s[p, path]
+    assert np.sum(np.abs(ranges_s - path_range) < 0.3) <= 0.05 * B
+
+
+@pytest.mark.slow
+def test_monostatic_signal_path_holds_the_person():
+    """indoor-monostatic on the signal path, 10 runs: the person held by a confirmed track in most scans, few false
+    tracks (measured over 20 runs in the closing note)."""
+    sim = Simulator(MONO)
+    plan = ScanPlan.all_listening(0, 10, 10)
+    acc = [run_episode(sim, seed, lambda k: plan, 2.0) for seed in range(10)]
+    assert np.mean([a.coverage()[0] for a in acc]) > 0.7
+    assert np.mean([a.false_tracks() for a in acc]) < 2.0

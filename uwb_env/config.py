@@ -528,7 +528,11 @@ class SignalConfig:
 
     In-sensor chain: square-law envelope with a Gaussian low-pass of std ``envelope_lpf_s``; direct-path ToA by jump
     back ``dp_jump_back_s`` from the strongest sample and search forward for ``dp_threshold_ratio`` of it;
-    ``background`` ``empty_room`` (seed 000 eq. 13) or ``exponential`` (seed 001, factor ``background_alpha``);
+    ``background`` ``empty_room`` (seed 000 eq. 13, on envelopes), ``exponential`` (seed 001, factor
+    ``background_alpha``) or ``coherent`` (the empty-room raw scan subtracted before the envelope: seed 002's static
+    clutter removal, for radars whose transmitter and receiver share a clock); ``align_scans``: re-time each scan
+    onto the reference by its direct path (seed 000; off for a common clock, where a timing estimate would only add
+    error to a coherent subtraction);
     CFAR ``cfar`` in {dtb, ca, g, os}: DTB with ``dtb_alpha_local``, ``dtb_alpha_global``, ``dtb_buffer``,
     ``dtb_qmax`` and increment ``dtb_delta`` (in units of the global power), CA/G/OS designed for ``cfar_pfa`` with
     ``cfar_reference`` / ``cfar_guard`` samples and OS rank ``os_rank``; 1-D clustering with distance
@@ -562,8 +566,9 @@ class SignalConfig:
     envelope_lpf_s: float = 0.2e-9
     dp_threshold_ratio: float = 0.3
     dp_jump_back_s: float = 3e-9
-    background: Literal["empty_room", "exponential"] = "empty_room"
+    background: Literal["empty_room", "exponential", "coherent"] = "empty_room"
     background_alpha: float = 0.9
+    align_scans: bool = True
     cfar: Literal["dtb", "ca", "g", "os"] = "dtb"
     dtb_alpha_local: float = 5.0
     dtb_alpha_global: float = 8.0
@@ -624,7 +629,8 @@ class SignalConfig:
         _in_range("SignalConfig", "background_alpha", self.background_alpha, 0.0, 1.0, closed="()")
         _in_range("SignalConfig", "dp_threshold_ratio", self.dp_threshold_ratio, 0.0, 1.0, closed="()")
         _in_range("SignalConfig", "cfar_pfa", self.cfar_pfa, 0.0, 0.5, closed="()")
-        _choice("SignalConfig", "background", self.background, ("empty_room", "exponential"))
+        _choice("SignalConfig", "background", self.background, ("empty_room", "exponential", "coherent"))
+        _choice("SignalConfig", "align_scans", self.align_scans, (True, False))
         _choice("SignalConfig", "cfar", self.cfar, ("dtb", "ca", "g", "os"))
         _choice("SignalConfig", "toa_estimator", self.toa_estimator, ("median", "peak"))
         _choice("SignalConfig", "linkage", self.linkage, ("centroid", "single", "complete"))

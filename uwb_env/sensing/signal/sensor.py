@@ -72,6 +72,7 @@ class SignalEpisode:
     rngs: RngStreams
     fluctuation: FloatArray  # (P, L) AR(1) relative amplitude fluctuation of the background paths
     reference: FloatArray  # (W, P, N) reference envelopes (empty room, or the exponential background)
+    reference_scan: FloatArray  # (W, P, N) the empty room's averaged raw scans (the coherent background)
     reference_toa: FloatArray  # (W, P) direct-path ToA of the references [samples]
     reference_peak: FloatArray  # (W, P) direct-path peak of the references [samples] (time origin of the ranges)
 
@@ -189,6 +190,7 @@ class SignalSensor:
             rngs=rngs,
             fluctuation=sig.clutter_fluctuation * rngs.signal.standard_normal((P, L)),
             reference=env,
+            reference_scan=er,
             reference_toa=toa,
             reference_peak=self._peak_near(env, toa),
         )
@@ -273,7 +275,12 @@ class SignalSensor:
         w = plan.waveform[self.pairs[active, 0]]
         ref = episode.reference[w, active]
         aligned, d, decisions, (row, toa_s, weight, peak), ranges = self.in_sensor(
-            scans, ref, episode.reference_toa[w, active], episode.reference_peak[w, active], active
+            scans,
+            ref,
+            episode.reference_toa[w, active],
+            episode.reference_peak[w, active],
+            active,
+            episode.reference_scan[w, active],
         )
         if self.sig.background == "exponential":
             episode.reference[w, active] = exponential_background(ref, aligned, self.sig.background_alpha)
@@ -285,20 +292,44 @@ class SignalSensor:
         return ScanTrace(scans, aligned, ref, d, decisions, active, row, toa_s, weight, peak, ranges, origin)
 
     def in_sensor(
-        self, scans: FloatArray, ref: FloatArray, ref_toa: FloatArray, ref_peak: FloatArray, pair: IntArray
+        self,
+        scans: FloatArray,
+        ref: FloatArray,
+        ref_toa: FloatArray,
+        ref_peak: FloatArray,
+        pair: IntArray,
+        ref_scan: FloatArray | None = None,
     ) -> tuple[FloatArray, FloatArray, BoolArray, tuple, FloatArray]:
         """Seed 000's in-sensor chain on scans ``(B, N)`` of pairs ``pair`` (B,) against references ``(B, N)``.
 
-        Returns the aligned envelopes, the rectified difference (blind zone zeroed), the CFAR decisions, the
-        clusters ``(row, toa [samples], weight, peak)`` and their bistatic ranges [m].
+        ``ref_scan`` ``(B, N)``: the raw empty-room scans, needed by ``background = "coherent"``. Returns the aligned
+        envelopes, the difference (rectified envelope difference, or the envelope of the raw difference; blind zone
+        zeroed), the CFAR decisions, the clusters ``(row, toa [samples], weight, peak)`` and their bistatic ranges [m].
         """
         sig = self.sig
         env = square_law_envelope(scans, self.lpf)
-        toa = direct_path_toa(env, sig.dp_threshold_ratio, self.jump_back)
-        aligned, _ = align_to_reference(env, ref, toa, ref_toa, self.half_window)
-        d = rectified_difference(aligned, ref)
-        d[np.arange(d.shape[-1])[None] < (ref_peak + self.blind)[:, None]] = 0.0  # blind zone (seed 000 IV-G)
-        decisions = self._cfar(d)
+        if sig.align_scans:
+            toa = direct_path_toa(env, sig.dp_threshold_ratio, self.jump_back)
+            aligned, delay = align_to_reference(env, ref, toa, ref_toa, self.half_window)
+        else:
+            aligned, delay = env, None
+        if sig.background == "coherent":
+            if ref_scan is None:
+                raise ValueError("background = 'coherent' needs the raw reference scans (ref_scan)")
+            raw = scans if delay is None else fractional_shift(scans, -delay)
+            # the envelope of the raw difference where the envelope grew: a target blocking a path (shadowing)
+            # lowers the envelope there, and is removed as seed 000's rectification removes it
+            d = np.where(aligned > ref, square_law_envelope(raw - ref_scan, self.lpf), 0.0)
+        else:
+            d = rectified_difference(aligned, ref)
+        blind = np.arange(d.shape[-1])[None] < (ref_peak + self.blind)[:, None]  # blind zone (seed 000 IV-G)
+        if sig.background == "coherent":  # the raw difference is noise, not zero, in the blind zone: let the CFAR
+            decisions = self._cfar(d)  # learn its level there, then drop what falls inside
+            decisions[blind] = False
+            d[blind] = 0.0
+        else:
+            d[blind] = 0.0
+            decisions = self._cfar(d)
         clusters = cluster_detections(
             decisions, d, sig.cluster_distance_s * self.fs, sig.cluster_min_weight, sig.toa_estimator
         )
