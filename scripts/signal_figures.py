@@ -45,11 +45,12 @@ def scan_traces(sensor: SignalSensor, seed: int):
 def fig5(sensor: SignalSensor, ep, trace, k: int, rx: int, path: Path) -> None:
     import matplotlib.pyplot as plt
 
-    p = int(np.flatnonzero(trace.pairs == rx)[0])
+    p = int(np.flatnonzero(sensor.pairs[trace.pairs, 1] == rx)[0])  # the (first) active pair of receiver rx
+    tx = int(sensor.pairs[trace.pairs[p], 0])
     t_ns = np.arange(sensor.sig.n_samples) / sensor.fs * 1e9
     true_ns = (
         sensor.sig.direct_path_offset_s * 1e9
-        + (ep.geom.bistatic_range[k, 0, rx, 0] - sensor.baseline[p]) / SPEED_OF_LIGHT_MPS * 1e9
+        + (ep.geom.bistatic_range[k, tx, rx, 0] - sensor.baseline[trace.pairs[p]]) / SPEED_OF_LIGHT_MPS * 1e9
     )
     fig, axes = plt.subplots(5, 1, figsize=(8, 10), sharex=True)
     axes[0].plot(t_ns, trace.scans[p], lw=0.5)
@@ -81,19 +82,24 @@ def fig5(sensor: SignalSensor, ep, trace, k: int, rx: int, path: Path) -> None:
 def fig6(sensor: SignalSensor, ep, traces, rx: int, path: Path) -> None:
     import matplotlib.pyplot as plt
 
-    p = int(np.flatnonzero(traces[0].pairs == rx)[0])
+    p = int(np.flatnonzero(sensor.pairs[traces[0].pairs, 1] == rx)[0])  # the (first) active pair of receiver rx
+    tx, base = int(sensor.pairs[traces[0].pairs[p], 0]), sensor.baseline[traces[0].pairs[p]]
     d = np.array([tr.difference[p] for tr in traces])
     dec = np.array([tr.decisions[p] for tr in traces])
     k = np.arange(1, len(traces) + 1)
-    true = (
-        sensor.dp_sample + (ep.geom.bistatic_range[k, 0, rx, 0] - sensor.baseline[p]) / SPEED_OF_LIGHT_MPS * sensor.fs
-    )
+    true = sensor.dp_sample + (ep.geom.bistatic_range[k, tx, rx, 0] - base) / SPEED_OF_LIGHT_MPS * sensor.fs
     fig, axes = plt.subplots(1, 4, figsize=(13, 4), sharey=True)
     extent = (0, sensor.sig.n_samples / sensor.fs * 1e9, len(traces) + 0.5, 0.5)
     axes[0].plot(true / sensor.fs * 1e9, k)
     axes[0].set_title("(a) true target ToA")
     for ax, img, title in zip(
-        axes[1:3], (np.sqrt(d), dec), ("(b) rectified differences", "(c) CFAR decisions"), strict=True
+        axes[1:3],
+        (np.sqrt(d), dec),
+        (
+            "(b) differences (coherent)" if sensor.sig.background == "coherent" else "(b) rectified differences",
+            "(c) CFAR decisions",
+        ),
+        strict=True,
     ):
         ax.imshow(img, aspect="auto", extent=extent, cmap="gray_r", interpolation="nearest")
         ax.set_title(title)
