@@ -103,7 +103,7 @@ def expected_posterior(
     check_q2(q2)
     A, N = len(plans), x.shape[0]
     x, P = np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(P, dtype=float)
-    Pa = np.broadcast_to(P, (A, N, 6, 6)).copy()
+    Pa = np.repeat(P[None], A, axis=0)
     if N == 0:
         return Pa
     cfg = tracker.cfg

@@ -253,9 +253,11 @@ class Tracker:
         t = self.tracks
         t.confirmed = t.confirmed | (t.existence >= cfg.confirm_existence)
         _, P = t.combined()
-        lost = np.trace(P[:, [0, 2]][:, :, [0, 2]], axis1=1, axis2=2) > 2.0 * cfg.max_position_std_m**2
+        lost = P[:, 0, 0] + P[:, 2, 2] > 2.0 * cfg.max_position_std_m**2  # position-covariance trace
         stale = ~t.confirmed & (t.age >= cfg.tentative_max_age)  # confirmation time-out
-        self.tracks = t.select((t.existence >= cfg.terminate_existence) & ~lost & ~stale)
+        keep = (t.existence >= cfg.terminate_existence) & ~lost & ~stale
+        if not keep.all():
+            self.tracks = t.select(keep)
         return self.tracks
 
     def _predict(self, dt: float, scan_index: int) -> None:
@@ -522,7 +524,8 @@ class Tracker:
             P = np.zeros((n, 6, 6))
             P[:, _PV[:, None], _PV[None, :]] = block
             P[:, 4, 4] = P[:, 5, 5] = cfg.initial_accel_std_mps2**2
-        active = np.broadcast_to(self._active_mask(scan_index), (n, self.r)).copy()
+        mask = self._active_mask(scan_index)
+        active = np.repeat(mask[None], n, axis=0)  # (np.broadcast_to costs more than the copy at these sizes)
         ids = np.arange(self._next_id, self._next_id + n)
         self._next_id += n
         return TrackSet(
@@ -531,7 +534,7 @@ class Tracker:
             age=np.zeros(n, np.int64),
             born=np.full(n, scan_index),
             existence=np.full(n, cfg.initial_existence),
-            mu=active / active.sum(axis=1, keepdims=True),
+            mu=np.repeat((mask / mask.sum())[None], n, axis=0),
             active=active,
             x=np.repeat(x[:, None], self.r, axis=1),
             P=np.repeat(P[:, None], self.r, axis=1),
