@@ -15,6 +15,7 @@ from uwb_env.lookahead import _expected_update, _ReductionModel, lookahead_costs
 from uwb_env.rng import RngStreams
 from uwb_env.scene import sample_truth
 from uwb_env.sensing import ParametricSensor, ScanPlan
+from uwb_env.sensing.records import Detections
 from uwb_env.tracking import Tracker, UnscentedWeights, compiled, imm_combine, imm_mix, kf_predict
 from uwb_env.tracking.initiation import fuse_candidates, range_azimuth_candidates, ridge_range, two_point_pairs
 
@@ -72,6 +73,56 @@ def test_initiation_kernels_equal_the_reference(seed, n, n_prev):
         strict=True,
     ):
         np.testing.assert_array_equal(a, b)
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(0, 14), n_prev=st.integers(0, 10), first=st.booleans())
+def test_fused_initiation_equals_the_trackers_numpy_initiation(seed, n, n_prev, first):
+    """compiled.initiate (select, fuse, pair, new states) against the numpy tracker's initiation on the same
+    candidates (a record of fused positions hands them over as they are)."""
+    cfg = scenarios.get("urban-intersection")
+    tc, lay = cfg.tracker, ParametricSensor(cfg).layout
+    rng = np.random.default_rng(seed)
+    a = lay.area
+    p = np.column_stack([rng.uniform(a[0] - 5, a[1] + 5, n), rng.uniform(a[2] - 5, a[3] + 5, n)])
+    cov = _spd(rng, n, n=2, scale=rng.uniform(0.01, 1.0))
+    k = min(n, n_prev)  # some previous candidates near current ones (pairs), the rest anywhere
+    p0 = np.vstack([p[:k] + rng.normal(scale=0.5, size=(k, 2)), rng.uniform(0, 30, (n_prev - k, 2))])
+    cov0 = _spd(rng, n_prev, n=2, scale=0.3)
+    dt = np.inf if first else 0.5
+    det = Detections(
+        tx=0,
+        rx=-1,
+        waveform=0,
+        time_s=1.0,
+        z=p,
+        R=cov,
+        snr=np.ones(n),
+        origin=np.full(n, -1, np.int64),
+        measurement_names=("x", "y"),
+        clutter_intensity=np.ones(n),
+        expected_false_alarms=1.0,
+    )
+    ref = Tracker(tc, lay.tx_pos, lay.rx_pos, lay.area, backend="numpy")
+    ref._previous.p, ref._previous.cov, ref._previous.time_s = p0, cov0, 1.0 - dt
+    ref._initiate([(det, np.ones(n, bool))], 1.0, 3)
+    x, P, rest_p, rest_cov = compiled.initiate(
+        p,
+        cov,
+        p0,
+        cov0,
+        dt,
+        lay.area,
+        2.0 * tc.init_max_position_std_m**2,
+        tc.init_max_candidates,
+        ref._gates[2],
+        tc.max_speed_mps,
+        tc.initial_accel_std_mps2,
+    )
+    np.testing.assert_allclose(x, ref.tracks.x[:, 0], rtol=1e-10, atol=1e-10)
+    np.testing.assert_allclose(P, ref.tracks.P[:, 0], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(rest_p, ref._previous.p, rtol=1e-10, atol=1e-10)
+    np.testing.assert_allclose(rest_cov, ref._previous.cov, rtol=1e-10, atol=1e-10)
 
 
 def test_azimuth_candidates_equal_ridge_range_then_bearing_ellipse_point():

@@ -883,3 +883,24 @@ def new_track_states(p, cov, p0, cov0, dt, max_speed, accel_std):  # pragma: no 
                 P[i, pv[u], pv[v]] = blk[u, v]
         P[i, 4, 4] = P[i, 5, 5] = accel_std * accel_std
     return x, P
+
+
+@_jit
+def initiate(p, cov, p_prev, cov_prev, dt, area, max_spread, cap, gate2, max_speed, accel_std):  # pragma: no cover
+    """The scan's initiation after the candidates, fused (Tracker._initiate, numpy reference).
+
+    select_candidates -> fuse_candidates -> two_point_pairs with the previous scan's unpaired candidates (none
+    when ``dt`` is not finite) -> new_track_states. Returns ``(x (n, 6), P (n, 6, 6))`` of the new tentative
+    tracks and the candidates ``(C', 2)``, ``(C', 2, 2)`` left unpaired for the next scan.
+    """
+    p, cov = select_candidates(p, cov, area, max_spread, cap)
+    p, cov = fuse_candidates(p, cov, gate2)
+    if math.isfinite(dt):
+        i, j = two_point_pairs(p, cov, p_prev, cov_prev, dt, max_speed)
+    else:
+        i, j = np.zeros(0, np.int64), np.zeros(0, np.int64)
+    x, P = new_track_states(p[i], cov[i], p_prev[j], cov_prev[j], dt, max_speed, accel_std)
+    rest = np.ones(p.shape[0], np.bool_)
+    rest[i] = False
+    idx = np.flatnonzero(rest)
+    return x, P, p[idx], cov[idx]

@@ -463,28 +463,41 @@ class Tracker:
         else:
             p, cov = (np.concatenate(ps), np.concatenate(covs)) if len(ps) > 1 else (ps[0], covs[0])
         max_spread = 2.0 * cfg.init_max_position_std_m**2
-        if fast:
-            p, cov = compiled.select_candidates(p, cov, self.area, max_spread, cfg.init_max_candidates)
-            p, cov = compiled.fuse_candidates(p, cov, self._gates[2])
-        else:
-            inside = (
-                (p[:, 0] >= self.area[0])
-                & (p[:, 0] <= self.area[1])
-                & (p[:, 1] >= self.area[2])
-                & (p[:, 1] <= self.area[3])
-            )
-            spread = np.trace(cov, axis1=1, axis2=2)
-            inside &= spread <= max_spread
-            p, cov, spread = p[inside], cov[inside], spread[inside]
-            if p.shape[0] > cfg.init_max_candidates:  # keep the most precise
-                best = np.argsort(spread, kind="stable")[: cfg.init_max_candidates]
-                p, cov = p[best], cov[best]
-            p, cov = fuse_candidates(p, cov, self._gates[2])
-        pairs = compiled.two_point_pairs if fast else two_point_pairs
         prev = self._previous
         dt = time_s - prev.time_s
+        if fast:  # select, fuse, two-point pairing and the new states in one compiled call
+            x, P, rest_p, rest_cov = compiled.initiate(
+                p,
+                cov,
+                prev.p,
+                prev.cov,
+                dt,
+                self.area,
+                max_spread,
+                cfg.init_max_candidates,
+                self._gates[2],
+                cfg.max_speed_mps,
+                cfg.initial_accel_std_mps2,
+            )
+            if x.shape[0]:
+                self.tracks = self.tracks.extend(self._track_set(x, P, scan_index))
+            self._previous = _Candidates(rest_p, rest_cov, time_s)
+            return
+        inside = (
+            (p[:, 0] >= self.area[0])
+            & (p[:, 0] <= self.area[1])
+            & (p[:, 1] >= self.area[2])
+            & (p[:, 1] <= self.area[3])
+        )
+        spread = np.trace(cov, axis1=1, axis2=2)
+        inside &= spread <= max_spread
+        p, cov, spread = p[inside], cov[inside], spread[inside]
+        if p.shape[0] > cfg.init_max_candidates:  # keep the most precise
+            best = np.argsort(spread, kind="stable")[: cfg.init_max_candidates]
+            p, cov = p[best], cov[best]
+        p, cov = fuse_candidates(p, cov, self._gates[2])
         i, j = (
-            pairs(p, cov, prev.p, prev.cov, dt, cfg.max_speed_mps)
+            two_point_pairs(p, cov, prev.p, prev.cov, dt, cfg.max_speed_mps)
             if np.isfinite(dt)
             else (np.zeros(0, np.int64), np.zeros(0, np.int64))
         )
@@ -497,33 +510,37 @@ class Tracker:
     def _new_tracks(
         self, p: FloatArray, cov: FloatArray, p0: FloatArray, cov0: FloatArray, dt: float, scan_index: int
     ) -> TrackSet:
-        """Tentative tracks from two-point differencing: position now, velocity from the difference.
+        """Tentative tracks from two-point differencing (numpy reference of ``compiled.new_track_states``).
+
+        Position now, velocity from the difference.
 
         The differenced velocity v_hat = (p - p0) / T, covariance Sigma = (cov + cov0) / T^2, is fused with the
         prior N(0, (v_max / 2)^2 I): v = K v_hat, Cov(v) = (Sigma^-1 + prior^-1)^-1, K = Cov(v) Sigma^-1, and
         Cov(p, v) = cov K^T / T (a valid joint covariance since Cov(v) <= Sigma).
         """
         n, cfg = p.shape[0], self.cfg
-        if self.backend == "compiled":
-            x, P = compiled.new_track_states(p, cov, p0, cov0, dt, cfg.max_speed_mps, cfg.initial_accel_std_mps2)
-        else:
-            v_hat = (p - p0) / dt
-            sigma = (cov + cov0) / dt**2
-            sigma_inv = np.linalg.inv(sigma)
-            cov_v = np.linalg.inv(sigma_inv + np.eye(2) / (0.5 * cfg.max_speed_mps) ** 2)
-            K = cov_v @ sigma_inv
-            x = np.zeros((n, 6))
-            x[:, 0], x[:, 2] = p[:, 0], p[:, 1]
-            v = np.einsum("nij,nj->ni", K, v_hat)
-            x[:, 1], x[:, 3] = v[:, 0], v[:, 1]
-            cross = cov @ np.swapaxes(K, -1, -2) / dt
-            block = np.concatenate(  # (n, 4, 4) in the order (x, y, vx, vy), scattered once into the state order
-                [np.concatenate([cov, cross], axis=2), np.concatenate([np.swapaxes(cross, -1, -2), cov_v], axis=2)],
-                axis=1,
-            )
-            P = np.zeros((n, 6, 6))
-            P[:, _PV[:, None], _PV[None, :]] = block
-            P[:, 4, 4] = P[:, 5, 5] = cfg.initial_accel_std_mps2**2
+        v_hat = (p - p0) / dt
+        sigma = (cov + cov0) / dt**2
+        sigma_inv = np.linalg.inv(sigma)
+        cov_v = np.linalg.inv(sigma_inv + np.eye(2) / (0.5 * cfg.max_speed_mps) ** 2)
+        K = cov_v @ sigma_inv
+        x = np.zeros((n, 6))
+        x[:, 0], x[:, 2] = p[:, 0], p[:, 1]
+        v = np.einsum("nij,nj->ni", K, v_hat)
+        x[:, 1], x[:, 3] = v[:, 0], v[:, 1]
+        cross = cov @ np.swapaxes(K, -1, -2) / dt
+        block = np.concatenate(  # (n, 4, 4) in the order (x, y, vx, vy), scattered once into the state order
+            [np.concatenate([cov, cross], axis=2), np.concatenate([np.swapaxes(cross, -1, -2), cov_v], axis=2)],
+            axis=1,
+        )
+        P = np.zeros((n, 6, 6))
+        P[:, _PV[:, None], _PV[None, :]] = block
+        P[:, 4, 4] = P[:, 5, 5] = cfg.initial_accel_std_mps2**2
+        return self._track_set(x, P, scan_index)
+
+    def _track_set(self, x: FloatArray, P: FloatArray, scan_index: int) -> TrackSet:
+        """New tentative tracks with states ``x (n, 6)``, ``P (n, 6, 6)`` in every model, fresh ids."""
+        n, cfg = x.shape[0], self.cfg
         mask = self._active_mask(scan_index)
         active = np.repeat(mask[None], n, axis=0)  # (np.broadcast_to costs more than the copy at these sizes)
         ids = np.arange(self._next_id, self._next_id + n)
