@@ -327,6 +327,37 @@ def measurement_moments(x, P, act, kinds, tx, rx, wm, wc, sigma_scale, use_ukf):
     return z_hat, S0, C, ok
 
 
+@nb.njit(cache=True, fastmath=False, nogil=True, inline="always")
+def _small_mahalanobis(S0, R, nu, n, r, i, m):  # pragma: no cover - compiled
+    """``(nu^T S^-1 nu, det S)`` for S = S0[n, r] + R[i] of size m <= 3, by cofactors.
+
+    det S is returned as 0 when S is not positive definite (a non-positive leading minor, Sylvester's criterion).
+    """
+    a = S0[n, r, 0, 0] + R[i, 0, 0]
+    v0 = nu[n, r, i, 0]
+    if m == 1:
+        return (v0 * v0 / a, a) if a > 0.0 else (0.0, 0.0)
+    b = S0[n, r, 0, 1] + R[i, 0, 1]
+    d = S0[n, r, 1, 1] + R[i, 1, 1]
+    v1 = nu[n, r, i, 1]
+    if m == 2:
+        det = a * d - b * b
+        if not (a > 0.0 and det > 0.0):
+            return 0.0, 0.0
+        return (d * v0 * v0 - 2.0 * b * v0 * v1 + a * v1 * v1) / det, det
+    c = S0[n, r, 0, 2] + R[i, 0, 2]
+    e = S0[n, r, 1, 2] + R[i, 1, 2]
+    f = S0[n, r, 2, 2] + R[i, 2, 2]
+    v2 = nu[n, r, i, 2]
+    c11, c12, c13 = d * f - e * e, c * e - b * f, b * e - c * d
+    c22, c23, c33 = a * f - c * c, b * c - a * e, a * d - b * b
+    det = a * c11 + b * c12 + c * c13
+    if not (a > 0.0 and c33 > 0.0 and det > 0.0):
+        return 0.0, 0.0
+    q = c11 * v0 * v0 + c22 * v1 * v1 + c33 * v2 * v2 + 2.0 * (c12 * v0 * v1 + c13 * v0 * v2 + c23 * v1 * v2)
+    return q / det, det
+
+
 @_jit
 def receiver_update(
     x, P, mu, act, psi, pd, z, R, rho, kinds, tx, rx, wm, wc, sigma_scale, use_ukf, g2, pg, fixed_existence
@@ -372,22 +403,28 @@ def receiver_update(
                         break
                 if not inside:
                     continue
-                for c in range(m):
-                    for e in range(m):
-                        Sm[c, e] = S0[n, r, c, e] + R[i, c, e]
-                if not _cholesky(Sm, Ls):
-                    ok = False
-                    continue
-                d2, det_l = 0.0, 1.0
-                for c in range(m):
-                    s = nu[n, r, i, c]
-                    for e in range(c):
-                        s -= Ls[c, e] * y[e]
-                    y[c] = s / Ls[c, c]
-                    d2 += y[c] * y[c]
-                    det_l *= Ls[c, c]
+                if m <= 3:  # closed forms: the gate test runs for every pre-gated pair, most of them outside
+                    d2, det_s = _small_mahalanobis(S0, R, nu, n, r, i, m)
+                    if not det_s > 0.0:
+                        ok = False
+                        continue
+                else:
+                    for c in range(m):
+                        for e in range(m):
+                            Sm[c, e] = S0[n, r, c, e] + R[i, c, e]
+                    if not _cholesky(Sm, Ls):
+                        ok = False
+                        continue
+                    d2, det_s = 0.0, 1.0
+                    for c in range(m):
+                        s = nu[n, r, i, c]
+                        for e in range(c):
+                            s -= Ls[c, e] * y[e]
+                        y[c] = s / Ls[c, c]
+                        d2 += y[c] * y[c]
+                        det_s *= Ls[c, c] * Ls[c, c]
                 if d2 < g2:
-                    logdet = 2.0 * math.log(det_l)
+                    logdet = math.log(det_s)
                     gated[n, r, i] = True
                     n_gated[n, r] += 1
                     loglik = -0.5 * (d2 + logdet + m * _LOG_2PI)
