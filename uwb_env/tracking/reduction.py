@@ -144,6 +144,7 @@ def table_grid() -> FloatArray:
     return np.array([PD_GRID[0], PD_GRID[1] - PD_GRID[0], LOG_LAMBDA_GRID[1] - LOG_LAMBDA_GRID[0]])
 
 
+@lru_cache(maxsize=64)
 def gate_volume_factor(m: int, gate_probability: float) -> float:
     """c_m gamma^(m/2): the gate volume is this times |S|^(1/2)."""
     gamma = float(stats.chi2.ppf(gate_probability, m))
