@@ -38,7 +38,7 @@ from scipy import stats
 from uwb_env.typing import FloatArray
 
 PD_GRID = np.linspace(0.02, 1.0, 50)
-"""Detection probabilities of the table (below 0.02 the first column is used: q_2 varies slowly there)."""
+"""Detection probabilities of the table's rows (a P_D below 0.02 reads the first row)."""
 LAMBDA_MAX = 200.0
 LOG_LAMBDA_GRID = np.linspace(0.0, math.log1p(LAMBDA_MAX), 61)
 """log(1 + lambda_G) of the table; lambda_G beyond LAMBDA_MAX uses the last column."""
@@ -78,7 +78,7 @@ def reduction_table(m: int, gate_probability: float) -> FloatArray:
         raise ValueError(f"gate_probability={gate_probability}: must be in (0, 1)")
     rng = np.random.default_rng([SEED, m, round(gate_probability * 1e9)])
     gamma = float(stats.chi2.ppf(gate_probability, m))
-    volume = unit_ball_volume(m) * gamma ** (m / 2.0)
+    volume = gate_volume_factor(m, gate_probability)
     lam = np.expm1(LOG_LAMBDA_GRID)
     n_max = int(stats.poisson.ppf(1.0 - 1e-9, LAMBDA_MAX)) + 1
     u_count = rng.uniform(size=N_SAMPLES)  # common across lambda: the counts rise with lambda
