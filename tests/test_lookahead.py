@@ -139,3 +139,19 @@ def test_expected_measurements_batch_the_waveforms(mid_episode):
         _, one_R = sensor.expected_measurements(0, 1, pos, np.array([w]), 10.0, 1)
         np.testing.assert_array_equal(one_R[0], R[i])
     assert (pd[1] >= pd[0]).all()  # the long pulse carries 2.75x the energy of the short one
+
+
+def test_pda_q2_costs_are_never_below_the_clutter_free_ones():
+    """q_2 <= P_G < 1 removes less of K S K^T than seed 003's q_2 = 1, so every action's expected trace is higher;
+    the env validates the option."""
+    env = gym.make("uwb_env/UrbanWaveform-v0", lookahead_q2="pda").unwrapped
+    env.reset(seed=5)
+    for k in range(30):
+        env.step(k % 4)
+    pda = env.lookahead_costs()
+    env.lookahead_q2 = 1.0
+    free = env.lookahead_costs()
+    assert np.all(pda >= free)
+    assert np.all(pda > free * (1.0 + 1e-6))  # tracks exist, so the difference is real, not rounding
+    with pytest.raises(ValueError, match="q2="):
+        gym.make("uwb_env/UrbanWaveform-v0", lookahead_q2="kershaw")
