@@ -54,8 +54,8 @@ from uwb_env.sensing.parametric import ParametricSensor
 from uwb_env.sensing.records import ScanPlan
 from uwb_env.tracking import compiled
 from uwb_env.tracking.imm import imm_combine, switch_probabilities
-from uwb_env.tracking.kernels import ekf_moments, linearised_h, symmetrise, ukf_moments
-from uwb_env.tracking.measurement import angular_mask, measure
+from uwb_env.tracking.kernels import linearised_h, symmetrise
+from uwb_env.tracking.measurement import measure
 from uwb_env.tracking.reduction import gate_volume_factor, interpolate, reduction_table, table_grid
 from uwb_env.tracking.tracker import Tracker, TrackSet
 from uwb_env.typing import BoolArray, FloatArray
@@ -198,10 +198,7 @@ def _expected_update(
     H is linearised at the predicted ``x (N, 6)``, ``P (N, 6, 6)`` by the tracker's filter; ``R (A, N, m, m)``,
     ``pd (A, N)``, ``rho (A, N)`` the clutter density at the predicted measurement (for q_2 = "pda").
     """
-    if tracker.cfg.filter == "ukf":
-        _, _, C = ukf_moments(names, x, P, tx_pos, rx_pos, tracker.weights, angular_mask(names))
-    else:
-        _, _, C = ekf_moments(names, x, P, tx_pos, rx_pos)
+    _, _, C = tracker.measurement_moments(names, x, P, tx_pos, rx_pos)
     H = linearised_h(P, C)  # (N, m, 6)
     PHt = Pa @ np.swapaxes(H, -1, -2)[None]  # (A, N, 6, m)
     S = H[None] @ PHt + R

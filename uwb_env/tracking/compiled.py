@@ -620,6 +620,15 @@ def _read_table(table, grid, pd, log_lam):  # pragma: no cover - compiled
 
 
 @_jit
+def read_table(table, grid, pd, log_lam):  # pragma: no cover - compiled
+    """``_read_table`` at every (pd[k], log_lam[k]) of two ``(K,)`` arrays (reduction.interpolate)."""
+    out = np.empty(pd.shape[0])
+    for k in range(pd.shape[0]):
+        out[k] = _read_table(table, grid, pd[k], log_lam[k])
+    return out
+
+
+@_jit
 def expected_update(
     Pa, x, P, kinds, tx, rx, wm, wc, sigma_scale, use_ukf, R, pd, q2, rho, table, grid, gate_volume
 ):  # pragma: no cover - compiled

@@ -35,6 +35,7 @@ from functools import lru_cache
 import numpy as np
 from scipy import stats
 
+from uwb_env.tracking import compiled
 from uwb_env.typing import FloatArray
 
 PD_GRID = np.linspace(0.02, 1.0, 50)
@@ -125,18 +126,13 @@ def information_reduction(m: int, pd: FloatArray, lam_gate: FloatArray, gate_pro
 
 
 def interpolate(table: FloatArray, pd: FloatArray, log_lam: FloatArray) -> FloatArray:
-    """Bilinear read of ``table`` at (pd, log(1 + lambda)) on (PD_GRID, LOG_LAMBDA_GRID), edges held."""
-    fi = np.clip((pd - PD_GRID[0]) / (PD_GRID[1] - PD_GRID[0]), 0.0, PD_GRID.size - 1.0)
-    fj = np.clip(log_lam / (LOG_LAMBDA_GRID[1] - LOG_LAMBDA_GRID[0]), 0.0, LOG_LAMBDA_GRID.size - 1.0)
-    i0 = np.minimum(fi.astype(np.int64), PD_GRID.size - 2)
-    j0 = np.minimum(fj.astype(np.int64), LOG_LAMBDA_GRID.size - 2)
-    a, b = fi - i0, fj - j0
-    return (
-        (1 - a) * (1 - b) * table[i0, j0]
-        + a * (1 - b) * table[i0 + 1, j0]
-        + (1 - a) * b * table[i0, j0 + 1]
-        + a * b * table[i0 + 1, j0 + 1]
-    )
+    """Bilinear read of ``table`` at (pd, log(1 + lambda)) on (PD_GRID, LOG_LAMBDA_GRID), edges held.
+
+    The one reader the compiled lookahead uses too (``compiled.read_table``); pd and log_lam broadcast.
+    """
+    pd, log_lam = np.broadcast_arrays(np.asarray(pd, dtype=float), np.asarray(log_lam, dtype=float))
+    flat = compiled.read_table(table, table_grid(), pd.ravel().copy(), log_lam.ravel().copy())
+    return flat.reshape(pd.shape)
 
 
 def table_grid() -> FloatArray:

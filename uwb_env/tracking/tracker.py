@@ -313,10 +313,7 @@ class Tracker:
         X, PP, MU = t.x[:, a], t.P[:, a], t.mu[:, a]
         N, r = len(t), a.size
         ang = angular_mask(names)
-        if cfg.filter == "ukf":
-            z_hat, S0, C = ukf_moments(names, X, PP, tx, rx, self.weights, ang)
-        else:
-            z_hat, S0, C = ekf_moments(names, X, PP, tx, rx)
+        z_hat, S0, C = self.measurement_moments(names, X, PP, tx, rx)
         g2 = self._gates[m]
         nu = wrap_residual(det.z[None, None] - z_hat[:, :, None], ang)  # (N, r, M, m)
         s_diag = np.diagonal(S0, axis1=-2, axis2=-1)[:, :, None] + np.diagonal(det.R, axis1=-2, axis2=-1)[None, None]
@@ -357,6 +354,14 @@ class Tracker:
         taken = np.zeros(len(det), bool)
         taken[cols] = owned > 0.5
         return taken
+
+    def measurement_moments(
+        self, names: tuple[str, ...], x: FloatArray, P: FloatArray, tx: FloatArray, rx: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """``(z_hat, S0, C)`` of the named measurement by the tracker's filter (UKF or EKF), numpy kernels."""
+        if self.cfg.filter == "ukf":
+            return ukf_moments(names, x, P, tx, rx, self.weights, angular_mask(names))
+        return ekf_moments(names, x, P, tx, rx)
 
     def compiled_filter_args(self, names: tuple[str, ...]) -> tuple[np.ndarray, FloatArray, FloatArray, float, bool]:
         """``(kinds, wm, wc, sigma_scale, use_ukf)``: the measurement and filter arguments of the compiled kernels."""

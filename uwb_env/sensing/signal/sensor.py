@@ -313,6 +313,7 @@ class SignalSensor:
             aligned, delay = align_to_reference(env, ref, toa, ref_toa, self.half_window)
         else:
             aligned, delay = env, None
+        blind = np.arange(env.shape[-1])[None] < (ref_peak + self.blind)[:, None]  # blind zone (seed 000 IV-G)
         if sig.background == "coherent":
             if ref_scan is None:
                 raise ValueError("background = 'coherent' needs the raw reference scans (ref_scan)")
@@ -320,14 +321,12 @@ class SignalSensor:
             # the envelope of the raw difference where the envelope grew: a target blocking a path (shadowing)
             # lowers the envelope there, and is removed as seed 000's rectification removes it
             d = np.where(aligned > ref, square_law_envelope(raw - ref_scan, self.lpf), 0.0)
-        else:
-            d = rectified_difference(aligned, ref)
-        blind = np.arange(d.shape[-1])[None] < (ref_peak + self.blind)[:, None]  # blind zone (seed 000 IV-G)
-        if sig.background == "coherent":  # the raw difference is noise, not zero, in the blind zone: let the CFAR
-            decisions = self._cfar(d)  # learn its level there, then drop what falls inside
+            # the raw difference is noise, not zero, in the blind zone: the CFAR learns its level there first
+            decisions = self._cfar(d)
             decisions[blind] = False
             d[blind] = 0.0
         else:
+            d = rectified_difference(aligned, ref)
             d[blind] = 0.0
             decisions = self._cfar(d)
         clusters = cluster_detections(
