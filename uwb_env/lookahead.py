@@ -57,21 +57,24 @@ from uwb_env.tracking.imm import imm_combine, switch_probabilities
 from uwb_env.tracking.kernels import linearised_h, symmetrise
 from uwb_env.tracking.measurement import measure
 from uwb_env.tracking.reduction import gate_volume_factor, interpolate, reduction_table, table_grid
-from uwb_env.tracking.tracker import Tracker, TrackSet
+from uwb_env.tracking.tracker import Tracker
 from uwb_env.typing import BoolArray, FloatArray
 
 POSITION = np.array([0, 2])
 
 
-def scored_prediction(tracker: Tracker, time_s: float, scan_index: int) -> TrackSet | None:
-    """The tracks a lookahead scores, predicted to the next scan (pure, ``Tracker.predicted``).
+def scored_prediction(
+    tracker: Tracker, time_s: float, scan_index: int
+) -> tuple[FloatArray, FloatArray, FloatArray, BoolArray] | None:
+    """The tracks a lookahead scores, predicted to the next scan (pure, ``Tracker.predicted_estimates``).
 
     The confirmed ones, or every (tentative) track when none is; ``None`` without any track.
+    Returns their combined ``x (N, 6)``, ``P (N, 6, 6)``, model probabilities ``(N, r)`` and model set ``(r,)``.
     """
-    pred = tracker.predicted(time_s, scan_index)
-    if not len(pred):
+    confirmed = tracker.tracks.confirmed  # prediction does not change the status
+    if not confirmed.size:
         return None
-    return pred.select(pred.confirmed) if pred.confirmed.any() else pred
+    return tracker.predicted_estimates(time_s, scan_index, confirmed if confirmed.any() else ~confirmed)
 
 
 def check_search(depth: int, beam: int | None, discount: float) -> None:
@@ -107,23 +110,28 @@ def expected_posterior(
     if N == 0:
         return Pa
     cfg = tracker.cfg
-    waveforms = np.array([p.waveform for p in plans])  # (A, T)
-    listening = _listening(plans)
+    table = _plan_table(plans)
     pos = x[:, POSITION]
     for tx, rx in sensor.pairs.tolist():
-        used = listening[:, rx] if delivering is None else delivering[:, :, rx].any(axis=1)
+        if delivering is None:
+            used, sent, which, every = table.pair_waveforms(tx, rx)
+        else:
+            used = delivering[:, :, rx].any(axis=1)
+            sent = np.unique(table.waveforms[used, tx])  # the waveforms the plans send: a small set
+            which = np.searchsorted(sent, table.waveforms[used, tx])
+            every = False
         if not used.any():
             continue
         names = sensor.measurement_names(rx)
         m = len(names)
-        wf = waveforms[:, tx]
-        pd = np.zeros((A, N))
-        R = np.zeros((A, N, m, m))
-        sent = np.unique(wf[used])  # the waveforms the plans send: a small set
         pd_w, R_w = sensor.expected_measurements(tx, rx, pos, sent, cfg.assumed_rcs_m2, cfg.assumed_swerling)
-        which = np.searchsorted(sent, wf[used])
-        pd[used] = np.minimum(pd_w[which], cfg.max_detection_probability)
-        R[used] = R_w[which]
+        if every:  # plan a sends waveform sent[a]: no scatter
+            pd, R = np.minimum(pd_w, cfg.max_detection_probability), R_w
+        else:
+            pd = np.zeros((A, N))
+            R = np.zeros((A, N, m, m))
+            pd[used] = np.minimum(pd_w[which], cfg.max_detection_probability)
+            R[used] = R_w[which]
         if delivering is not None:
             pd = pd * delivering[:, :, rx]
         tx_pos, rx_pos = tracker.tx_pos[tx], tracker.rx_pos[rx]
@@ -131,7 +139,7 @@ def expected_posterior(
         if q2 == "pda":  # the clutter map at the predicted measurements, floored like the tracker's
             z_pred, _ = measure(names, x, tx_pos, rx_pos)
             rho_w = np.maximum(sensor.clutter_intensity_at(tx, rx, z_pred, R_w), cfg.min_clutter_intensity)
-            rho[used] = rho_w[which]
+            rho[used] = rho_w[which]  # (every: which is the identity)
         model = _ReductionModel(q2, m, cfg.gate_probability)
         if tracker.backend == "compiled":
             kinds, wm, wc, sigma_scale, use_ukf = tracker.compiled_filter_args(names)
@@ -224,9 +232,47 @@ def lookahead_costs(
     scored = scored_prediction(tracker, time_s, scan_index)
     if scored is None:
         return np.zeros(len(plans))
-    x, P = scored.combined()
-    delivering = None if ready_rx is None else _delivering(_listening(plans), ready_rx[None], x.shape[0])
+    x, P, _, _ = scored
+    delivering = None if ready_rx is None else _delivering(_plan_table(plans).listening, ready_rx[None], x.shape[0])
     return position_trace(expected_posterior(x, P, sensor, tracker, plans, q2, delivering)).mean(axis=1)
+
+
+class _PlanTable:
+    """What the lookahead reads of a plan list, computed once per list (plans are read-only once enumerated).
+
+    waveforms ``(A, T)`` the waveform each plan sends per transmitter, listening ``(A, R)``; per pair, the plans
+    that use it, the distinct waveforms they send and which one each sends (``pair_waveforms``).
+    """
+
+    def __init__(self, plans: Sequence[ScanPlan]) -> None:
+        self.plans = plans  # kept alive: the cache is keyed by its identity
+        self.waveforms = np.array([p.waveform for p in plans])
+        self.listening = _listening(plans)
+        self._pairs: dict[tuple[int, int], tuple[BoolArray, np.ndarray, np.ndarray, bool]] = {}
+
+    def pair_waveforms(self, tx: int, rx: int) -> tuple[BoolArray, np.ndarray, np.ndarray, bool]:
+        """``(used (A,), sent (W,), which (A_used,), every)`` of pair (tx, rx); every: all plans, sent[a] by plan a."""
+        key = (tx, rx)
+        if key not in self._pairs:
+            used = self.listening[:, rx]
+            sent = np.unique(self.waveforms[used, tx])
+            which = np.searchsorted(sent, self.waveforms[used, tx])
+            every = bool(used.all()) and np.array_equal(which, np.arange(used.size))
+            self._pairs[key] = (used, sent, which, every)
+        return self._pairs[key]
+
+
+_PLAN_TABLES: dict[int, _PlanTable] = {}
+
+
+def _plan_table(plans: Sequence[ScanPlan]) -> _PlanTable:
+    """The cached ``_PlanTable`` of this plan list (by identity; a few lists live at a time)."""
+    table = _PLAN_TABLES.get(id(plans))
+    if table is None or table.plans is not plans:
+        if len(_PLAN_TABLES) > 64:
+            _PLAN_TABLES.clear()
+        table = _PLAN_TABLES[id(plans)] = _PlanTable(plans)
+    return table
 
 
 def _listening(plans: Sequence[ScanPlan]) -> BoolArray:
@@ -289,13 +335,12 @@ def sequence_costs(
     scored = scored_prediction(tracker, time_s, scan_index)
     if scored is None:
         return np.zeros(A)
-    x, P = scored.combined()
-    mu, active = scored.mu, scored.active[0]
+    x, P, mu, active = scored
     N = x.shape[0]
     first = np.zeros(1, np.int64)  # per kept sequence: its first plan (none yet)
     cum = np.zeros(1)  # per kept sequence: its cost so far
     ready = None if ready_rx is None else np.asarray(ready_rx, bool)[None]  # (B, R) per kept sequence
-    listening = _listening(plans)
+    listening = _plan_table(plans).listening
     xs, Ps, mus = x[None], P[None], mu[None]  # (B, N, ...) per kept sequence
     for level in range(depth):
         B = cum.size

@@ -49,3 +49,19 @@ def test_the_clutter_residue_is_averaged_in_the_compiled_pd():
     assert ok.any()
     assert np.all(pd[:, ok] <= free[:, ok] + 1e-15)
     assert np.any(pd[:, ok] < free[:, ok] - 1e-3)
+
+
+@pytest.mark.parametrize("scenario", scenarios.names())
+def test_expected_covariance_equals_the_numpy_reference(scenario):
+    """The lookahead's R (W, N, m, m): CRLB / SNR, the array's azimuth CRLB appended, unit SNR where uncovered."""
+    sensor = ParametricSensor(scenarios.get(scenario))
+    pos = _points(sensor, 500, seed=7)
+    waveforms = np.arange(len(sensor.library))[::-1].copy()  # not in library order
+    for t, r in sensor.pairs.tolist():
+        pd, R = sensor.expected_measurements(t, r, pos, waveforms, 2.3, 1)
+        az, ok, snr, pd0 = sensor._mean_link(t, r, pos, waveforms, 2.3, 1)
+        R0 = sensor._expected_covariance_reference(r, az, ok, snr, waveforms)
+        m = len(sensor.measurement_names(r))
+        assert R.shape == (waveforms.size, pos.shape[0], m, m)
+        np.testing.assert_array_equal(pd, pd0)
+        np.testing.assert_allclose(R, R0, rtol=1e-13, atol=0)

@@ -133,3 +133,31 @@ def mean_link(
                 p += pj * weights[j]
             pd[w, n] = p
     return az, ok, snr, pd
+
+
+@_jit
+def expected_covariance(az, ok, snr, unit_cov, doa, boresight, n_elements, spacing, wavelengths):  # pragma: no cover
+    """The lookahead's measurement covariances ``(W, N, m, m)`` at the mean SNR (``expected_measurements``).
+
+    R = R(SNR = 1) / SNR for the CRLB waveform models, ``unit_cov`` ``(W, m0, m0)``, at ``snr`` ``(W, N)`` where
+    covered (``ok`` ``(N,)``) and above 1, else at SNR = 1; with ``doa`` the array's azimuth CRLB
+    (``parametric.azimuth_variance``, element SNR = SNR / L, off-boresight angle wrapped to [-pi, pi)) is appended
+    as a last row and column, m = m0 + 1. ``wavelengths`` ``(W,)`` [m].
+    """
+    W, N = snr.shape
+    m0 = unit_cov.shape[1]
+    m = m0 + 1 if doa else m0
+    R = np.zeros((W, N, m, m))
+    L = n_elements
+    for w in range(W):
+        for n in range(N):
+            s = snr[w, n] if ok[n] and snr[w, n] > 1.0 else 1.0
+            inv = 1.0 / s
+            for i in range(m0):
+                for j in range(m0):
+                    R[w, n, i, j] = inv * unit_cov[w, i, j]
+            if doa:
+                off = (az[n] - boresight + math.pi) % (2.0 * math.pi) - math.pi
+                kk = 2.0 * math.pi * spacing * math.cos(off) / wavelengths[w]
+                R[w, n, m0, m0] = 6.0 / ((s / L) * L * (L**2 - 1.0) * kk**2)
+    return R

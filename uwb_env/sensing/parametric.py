@@ -49,7 +49,7 @@ from uwb_env.constants import SPEED_OF_LIGHT_MPS
 from uwb_env.rng import RngStreams
 from uwb_env.scene.layout import SceneLayout
 from uwb_env.scene.truth import Truth
-from uwb_env.sensing.compiled import mean_link
+from uwb_env.sensing.compiled import expected_covariance, mean_link
 from uwb_env.sensing.pd import detection_probability, threshold_from_pfa
 from uwb_env.sensing.records import Detections, ScanPlan
 from uwb_env.typing import BoolArray, FloatArray, IntArray
@@ -234,6 +234,7 @@ class ParametricSensor:
         self._wavelengths = np.array([w.wavelength_m for w in self.library.waveforms])
         self._unit_gain = np.ones((len(self.library), 1))  # no clutter residue: one node, gain 1
         self._unit_weight = np.ones(1)
+        self._link_cache: dict[tuple[int, ...], tuple] = {}  # mean_link's arguments per (tx, rx, waveforms...)
 
     def _per_link(self, fn) -> FloatArray:
         """``(W, T, R)`` array of ``fn(waveform, tx config, rx config, (t, r))`` over the library and node pairs."""
@@ -754,32 +755,17 @@ class ParametricSensor:
 
         Returns ``(azimuth (N,), covered (N,), mean SNR (W, N), Pd (W, N))``: the geometry once, the radar
         constant per waveform. One compiled pass (``sensing.compiled.mean_link``, the rules of ``_links``);
-        Swerling 0's Marcum Q is evaluated here on the returned SNR.
+        Swerling 0's Marcum Q is evaluated here on the returned SNR. The pair's and the waveforms' arguments are
+        read-only arrays of the sensor, gathered once per (pair, waveforms) (``_link_args``).
         """
-        lay, sens, ch = self.layout, self.cfg.sensing, self.cfg.channel
         pos = np.ascontiguousarray(positions, dtype=float).reshape(-1, 2)
-        waveforms = np.asarray(waveforms, dtype=np.int64).reshape(-1)
-        if self._residue:
-            gain, weights = self.detection_gain[waveforms, tx, rx], self._residue_weights
-        else:
-            gain, weights = self._unit_gain[waveforms], self._unit_weight
+        pair_args, k, gain, weights = self._link_args(tx, rx, waveforms)
+        sens = self.cfg.sensing
         az, ok, snr, pd = mean_link(
-            lay.tx_pos[tx],
-            lay.rx_pos[rx],
+            *pair_args[:2],
             pos,
-            lay.wall_start,
-            lay.wall_end,
-            lay.wall_loss_db,
-            lay.wall_delay_s,
-            float(lay.rx_boresight_rad[rx]),
-            float(lay.rx_fov_rad[rx]),
-            sens.max_range_m,
-            float(self.baseline[tx, rx]),
-            sens.blind_zone_excess_m,
-            bool(self.pair_mask[tx, rx]),
-            ch.reference_distance_m,
-            ch.path_loss_exponent,
-            self.radar_constant[waveforms, tx, rx],
+            *pair_args[2:],
+            k,
             float(rcs_m2),
             gain,
             weights,
@@ -795,6 +781,42 @@ class ParametricSensor:
                 0.0,
             )
         return az, ok, snr, pd
+
+    def _link_args(self, tx: int, rx: int, waveforms: IntArray) -> tuple[tuple, FloatArray, FloatArray, FloatArray]:
+        """``mean_link``'s arguments of pair (tx, rx) and ``waveforms``: (pair's geometry, k (W,), gain, weights).
+
+        Cached per (tx, rx, waveforms) (a handful: the lookahead's sets and single waveforms).
+        """
+        key = (tx, rx, waveforms) if isinstance(waveforms, int) else (tx, rx, *np.asarray(waveforms).ravel().tolist())
+        args = self._link_cache.get(key)
+        if args is None:
+            lay, sens, ch = self.layout, self.cfg.sensing, self.cfg.channel
+            w = np.asarray(waveforms, dtype=np.int64).reshape(-1)
+            pair = (
+                lay.tx_pos[tx],
+                lay.rx_pos[rx],
+                lay.wall_start,
+                lay.wall_end,
+                lay.wall_loss_db,
+                lay.wall_delay_s,
+                float(lay.rx_boresight_rad[rx]),
+                float(lay.rx_fov_rad[rx]),
+                sens.max_range_m,
+                float(self.baseline[tx, rx]),
+                sens.blind_zone_excess_m,
+                bool(self.pair_mask[tx, rx]),
+                ch.reference_distance_m,
+                ch.path_loss_exponent,
+            )
+            if self._residue:
+                gain, weights = self.detection_gain[w, tx, rx], self._residue_weights
+            else:
+                gain, weights = self._unit_gain[w], self._unit_weight
+            args = (pair, np.ascontiguousarray(self.radar_constant[w, tx, rx]), np.ascontiguousarray(gain), weights)
+            if len(self._link_cache) > 1024:
+                self._link_cache.clear()
+            self._link_cache[key] = args
+        return args
 
     def _mean_link_reference(
         self, tx: int, rx: int, positions: FloatArray, waveforms: IntArray, rcs_m2: float, swerling: int
@@ -823,7 +845,7 @@ class ParametricSensor:
         and field of view at the given positions (the rules of the sensing itself), for an assumed mean RCS and
         Swerling case.
         """
-        return self._mean_link(tx, rx, positions, np.array([waveform]), rcs_m2, swerling)[3][0]
+        return self._mean_link(tx, rx, positions, int(waveform), rcs_m2, swerling)[3][0]
 
     def expected_measurements(
         self, tx: int, rx: int, positions: FloatArray, waveforms: IntArray, rcs_m2: float = 1.0, swerling: int = 1
@@ -833,9 +855,31 @@ class ParametricSensor:
         At ``positions`` (N, 2) [m], for the waveforms ``(W,)``.
         R is the waveform's covariance at the mean SNR (assumed RCS) with the azimuth variance of the array
         receiver appended (columns ``measurement_names(rx)``); uncovered positions get Pd = 0 and R at unit SNR.
+        The CRLB waveform models go through one compiled pass (``sensing.compiled.expected_covariance``);
+        ``_expected_covariance_reference`` is its numpy reference and serves the other models.
         """
         waveforms = np.asarray(waveforms, dtype=np.int64).reshape(-1)
         az, ok, snr, pd = self._mean_link(tx, rx, positions, waveforms, rcs_m2, swerling)
+        if not self._all_unit_chol:
+            return pd, self._expected_covariance_reference(rx, az, ok, snr, waveforms)
+        lay = self.layout
+        R = expected_covariance(
+            az,
+            ok,
+            snr,
+            self._unit_cov_stack[waveforms],
+            bool(self._doa_rx[rx]),
+            float(self._boresight[rx]),
+            float(lay.rx_n_elements[rx]),
+            float(lay.rx_spacing_m[rx]),
+            self._wavelengths[waveforms],
+        )
+        return pd, R
+
+    def _expected_covariance_reference(
+        self, rx: int, az: FloatArray, ok: BoolArray, snr: FloatArray, waveforms: IntArray
+    ) -> FloatArray:
+        """R ``(W, N, m, m)`` of ``expected_measurements`` from the link ``(az, ok, snr)`` of ``_mean_link`` (numpy)."""
         safe = np.where(ok & (snr > 1.0), snr, 1.0)
         if self._all_unit_chol:  # R = R(SNR = 1) / SNR (the CRLB models), every waveform at once
             R = (1.0 / safe)[..., None, None] * self._unit_cov_stack[waveforms][:, None]
@@ -848,7 +892,7 @@ class ParametricSensor:
             var = azimuth_variance(safe, n_el, spacing, self._wavelengths[waveforms][:, None], off)  # (W, N)
             m = R.shape[-1] + 1
             R = _append_block(R.reshape(-1, m - 1, m - 1), var.reshape(-1)).reshape(*var.shape, m, m)
-        return pd, R
+        return R
 
     def clutter_intensity_at(self, tx: int, rx: int, z: FloatArray, R: FloatArray) -> FloatArray:
         """The known clutter map ``(W, N)`` of pair (tx, rx) at measurements ``z`` (N, m) [measurement units].

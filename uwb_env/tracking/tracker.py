@@ -262,28 +262,38 @@ class Tracker:
 
     def _predict(self, dt: float, scan_index: int) -> None:
         t = self.tracks
+        t.mu, t.active, t.x, t.P = self._predict_models(t.mu, t.active, t.x, t.P, dt, scan_index)
+        t.existence = predict_existence(t.existence, self.cfg.survival_probability)
+        t.age = t.age + 1
+
+    def _predict_models(
+        self, mu: FloatArray, active: BoolArray, x: FloatArray, P: FloatArray, dt: float, scan_index: int
+    ) -> tuple[FloatArray, BoolArray, FloatArray, FloatArray]:
+        """VS-IMM set switch, IMM mixing and Kalman prediction of ``(mu, active, x, P)``, ``dt`` later.
+
+        Works in place on the given arrays where it can; returns the predicted ``(mu, active, x, P)``.
+        """
         mask = self._active_mask(scan_index)
-        if (t.active != mask).any():  # VS-IMM set change (rare): the switch rule of uwb_env.tracking.imm
-            active = np.broadcast_to(mask, t.active.shape)
-            t.mu, t.x, t.P = switch_model_sets(t.active, active, t.mu, t.x, t.P)
-            t.active = active.copy()
+        if (active != mask).any():  # VS-IMM set change (rare): the switch rule of uwb_env.tracking.imm
+            new = np.broadcast_to(mask, active.shape)
+            mu, x, P = switch_model_sets(active, new, mu, x, P)
+            active = new.copy()
         # Every track shares the scan's model set: mix and predict the active models only (inactive ones are
         # re-initialised from the combined estimate by the switch rule if they come back).
         a = self._active_index(mask)
         Pi, F, Q = self._restricted_matrices(dt, mask)
         if self.backend == "compiled":
-            compiled.predict_models(t.mu, Pi, t.x, t.P, F, Q, a)  # in place
+            compiled.predict_models(mu, Pi, x, P, F, Q, a)  # in place
         else:
-            cbar, x0, P0 = imm_mix(t.mu[:, a], np.broadcast_to(Pi, (len(t), a.size, a.size)), t.x[:, a], t.P[:, a])
-            t.x[:, a], t.P[:, a] = kf_predict(x0, P0, F[None], Q[None])
-            t.mu[:, a] = cbar / cbar.sum(axis=-1, keepdims=True)
-        t.existence = predict_existence(t.existence, self.cfg.survival_probability)
-        t.age = t.age + 1
+            cbar, x0, P0 = imm_mix(mu[:, a], np.broadcast_to(Pi, (mu.shape[0], a.size, a.size)), x[:, a], P[:, a])
+            x[:, a], P[:, a] = kf_predict(x0, P0, F[None], Q[None])
+            mu[:, a] = cbar / cbar.sum(axis=-1, keepdims=True)
+        return mu, active, x, P
 
     def predicted(self, time_s: float, scan_index: int) -> TrackSet:
         """The tracks predicted to ``time_s`` (IMM mixing and prediction, existence), without changing the tracker.
 
-        Pure: works on copies and draws nothing (the lookahead's input).
+        Pure: works on copies and draws nothing.
         """
         t = self.tracks
         saved = self.tracks
@@ -294,6 +304,22 @@ class Tracker:
             return self.tracks
         finally:
             self.tracks = saved
+
+    def predicted_estimates(
+        self, time_s: float, scan_index: int, keep: BoolArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray, BoolArray]:
+        """The combined estimates of the tracks ``keep`` (N,) predicted to ``time_s`` (the lookahead's input).
+
+        The numbers of ``predicted`` for those tracks, without copying the others. Pure.
+        Returns: combined x ``(n, 6)``, P ``(n, 6, 6)``, model probabilities mu ``(n, r)``, model set ``(r,)``.
+        """
+        t = self.tracks
+        keep = np.asarray(keep, dtype=bool)
+        mu, active, x, P = t.mu[keep], t.active[keep], t.x[keep], t.P[keep]  # boolean indexing: copies
+        if self._time is not None and mu.shape[0]:
+            mu, active, x, P = self._predict_models(mu, active, x, P, time_s - self._time, scan_index)
+        xc, Pc = compiled.combine(mu, x, P)
+        return xc, Pc, mu, (active[0] if active.shape[0] else self._active_mask(scan_index))
 
     def _update(self, det: Detections) -> BoolArray:
         """LMIPDA + PDA update of every track with one pair's detections.
