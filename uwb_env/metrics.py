@@ -23,26 +23,52 @@ from scipy.optimize import linear_sum_assignment
 from uwb_env.typing import BoolArray, FloatArray, IntArray
 
 
-def assign(track_pos: FloatArray, target_pos: FloatArray, gate_m: float) -> tuple[IntArray, IntArray]:
-    """Hungarian assignment of tracks ``(N, 2)`` to targets ``(K, 2)`` within ``gate_m``: (track idx, target idx)."""
+def distances(track_pos: FloatArray, target_pos: FloatArray) -> FloatArray:
+    """``(N, K)`` Euclidean distances [m] between positions ``(N, 2)`` and ``(K, 2)``."""
+    diff = track_pos[:, None] - target_pos[None]
+    return np.sqrt((diff * diff).sum(axis=-1))
+
+
+def _min_cost_matching(cost: FloatArray) -> tuple[IntArray, IntArray]:
+    """Hungarian assignment of ``cost`` (N, K); a single row or column is its argmin (no solver call)."""
+    n, k = cost.shape
+    if n == 1:
+        j = int(np.argmin(cost[0]))
+        return np.zeros(1, np.int64), np.array([j])
+    if k == 1:
+        i = int(np.argmin(cost[:, 0]))
+        return np.array([i]), np.zeros(1, np.int64)
+    return linear_sum_assignment(cost)
+
+
+def assign(
+    track_pos: FloatArray, target_pos: FloatArray, gate_m: float, d: FloatArray | None = None
+) -> tuple[IntArray, IntArray]:
+    """Hungarian assignment of tracks ``(N, 2)`` to targets ``(K, 2)`` within ``gate_m``: (track idx, target idx).
+
+    ``d``: their ``distances`` if already computed.
+    """
     if track_pos.shape[0] == 0 or target_pos.shape[0] == 0:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    d = np.linalg.norm(track_pos[:, None] - target_pos[None], axis=-1)
-    i, j = linear_sum_assignment(np.where(d <= gate_m, d, 1e12))
+    d = distances(track_pos, target_pos) if d is None else d
+    i, j = _min_cost_matching(np.where(d <= gate_m, d, 1e12))
     ok = d[i, j] <= gate_m
     return i[ok], j[ok]
 
 
-def ospa(track_pos: FloatArray, target_pos: FloatArray, cutoff_m: float, order: float = 2.0) -> float:
-    """OSPA distance [m] between two finite sets of positions (0 when both are empty)."""
+def ospa(
+    track_pos: FloatArray, target_pos: FloatArray, cutoff_m: float, order: float = 2.0, d: FloatArray | None = None
+) -> float:
+    """OSPA distance [m] between two finite sets of positions (0 when both are empty); ``d``: their ``distances``."""
     m, n = track_pos.shape[0], target_pos.shape[0]
     if m == 0 and n == 0:
         return 0.0
     if m == 0 or n == 0:
         return float(cutoff_m)
-    d = np.minimum(np.linalg.norm(track_pos[:, None] - target_pos[None], axis=-1), cutoff_m) ** order
-    i, j = linear_sum_assignment(d)
-    cost = d[i, j].sum() + cutoff_m**order * abs(m - n)
+    d = distances(track_pos, target_pos) if d is None else d
+    c = np.minimum(d, cutoff_m) ** order
+    i, j = _min_cost_matching(c)
+    cost = c[i, j].sum() + cutoff_m**order * abs(m - n)
     return float((cost / max(m, n)) ** (1.0 / order))
 
 

@@ -44,7 +44,7 @@ from gymnasium import spaces
 from uwb_env import scenarios
 from uwb_env.config import ScenarioConfig, apply_overrides
 from uwb_env.lookahead import check_q2, lookahead_costs, sequence_costs
-from uwb_env.metrics import assign, ospa
+from uwb_env.metrics import assign, distances, ospa
 from uwb_env.sensing.records import ScanPlan
 from uwb_env.sim import ScanResult, Simulator
 from uwb_env.typing import BoolArray, FloatArray
@@ -255,33 +255,34 @@ class UWBSchedulingEnv(gym.Env):
     def _reward_and_info(self, res: ScanResult, action: int) -> tuple[float, dict[str, Any]]:
         t = res.tracks
         x, P = t.combined()
-        conf = t.confirmed
+        conf = np.flatnonzero(t.confirmed)
+        n_conf = conf.size
         trace = P[conf, 0, 0] + P[conf, 2, 2]
-        mean_trace = float(trace.mean()) if trace.size else 0.0
+        mean_trace = float(trace.sum()) / n_conf if n_conf else 0.0
         truth = self.sim.truth
         alive = truth.alive[res.scan_index]
-        targets = truth.states[res.scan_index][alive][:, [0, 2]]
-        tracks_pos = x[conf][:, [0, 2]]
-        ti, gi = assign(tracks_pos, targets, self.cover_gate_m)
-        missed = int(alive.sum()) - int(gi.size)
+        targets = truth.states[res.scan_index][alive][:, 0:3:2]  # (x, y)
+        tracks_pos = x[conf][:, 0:3:2]
+        d = distances(tracks_pos, targets)
+        ti, gi = assign(tracks_pos, targets, self.cover_gate_m, d)
+        missed = targets.shape[0] - gi.size
         energy = float(self.plan_energy_j[action])
         reward = -mean_trace - self.missed_target_penalty_m2 * missed - self.energy_cost_per_j * energy
         if not math.isfinite(reward):
             raise FloatingPointError(f"reward is {reward} at scan {res.scan_index}: mean trace {mean_trace}")
-        errors = np.linalg.norm(tracks_pos[ti] - targets[gi], axis=1)
         info = {
             "scan_index": res.scan_index,
             "covariance_trace": mean_trace,
-            "target_covariance_trace": float(trace[ti].mean()) if ti.size else 0.0,
+            "target_covariance_trace": float(trace[ti].sum()) / ti.size if ti.size else 0.0,
             "missed_targets": missed,
             "missed_penalty": self.missed_target_penalty_m2 * missed,
             "energy_j": energy,
             "energy_cost": self.energy_cost_per_j * energy,
-            "position_errors_m": errors,
-            "ospa_m": ospa(tracks_pos, targets, cutoff_m=self.cover_gate_m * 2),
-            "confirmed_tracks": int(conf.sum()),
-            "false_tracks": int(conf.sum()) - int(ti.size),
-            "model_probabilities": (t.mu[conf].mean(axis=0) if conf.any() else np.zeros(self.n_models)),
+            "position_errors_m": d[ti, gi],
+            "ospa_m": ospa(tracks_pos, targets, cutoff_m=self.cover_gate_m * 2, d=d),
+            "confirmed_tracks": n_conf,
+            "false_tracks": n_conf - ti.size,
+            "model_probabilities": (t.mu[conf].sum(axis=0) / n_conf if n_conf else np.zeros(self.n_models)),
         }
         return float(reward), info
 
@@ -298,8 +299,8 @@ class UWBSchedulingEnv(gym.Env):
             f[:, 0] = 1.0
             f[:, 1] = tracks.existence[order]
             f[:, 2] = tracks.confirmed[order]
-            f[:, 3:5] = (x[:, [0, 2]] - self._centre) / self._half
-            f[:, 5:7] = x[:, [1, 3]] / self._v_max
+            f[:, 3:5] = (x[:, 0:3:2] - self._centre) / self._half  # (x, y)
+            f[:, 5:7] = x[:, 1:4:2] / self._v_max  # (vx, vy)
             f[:, 7] = np.log10(vx) / 4.0
             f[:, 8] = np.log10(vy) / 4.0
             f[:, 9] = P[:, 0, 2] / np.sqrt(vx * vy)
@@ -314,14 +315,15 @@ class UWBSchedulingEnv(gym.Env):
                 parts["lookahead_all_ready"] = _scaled_cost(lookahead_costs(*self._next_scan(), q2=self.lookahead_q2))
         if self.receiver_warmup:
             parts["ready_receivers"] = self._ready_rx.astype(float)
-        for name, v in parts.items():
-            if not np.all(np.abs(v) <= OBS_BOUND):  # also catches NaN
-                raise FloatingPointError(
-                    f"observation part {name!r} outside [-{OBS_BOUND}, {OBS_BOUND}] or not finite at scan {self.sim.k}"
-                )
+        flat = np.concatenate([v.ravel() for v in parts.values()])
+        if not (np.abs(flat) <= OBS_BOUND).all():  # also catches NaN
+            bad = [name for name, v in parts.items() if not np.all(np.abs(v) <= OBS_BOUND)]
+            raise FloatingPointError(
+                f"observation part(s) {bad} outside [-{OBS_BOUND}, {OBS_BOUND}] or not finite at scan {self.sim.k}"
+            )
         if self.obs_kind == "dict":
             return {k: v.astype(np.float32) for k, v in parts.items()}
-        return np.concatenate([v.ravel() for v in parts.values()]).astype(np.float32)
+        return flat.astype(np.float32)
 
     # ---------------------------------------------------------------------------------------------- rendering
     def render(self) -> np.ndarray | None:
