@@ -39,9 +39,12 @@ def _n_actions(env: gym.Env) -> int:
 def best_action(costs: np.ndarray, env: gym.Env) -> int:
     """The valid action of least cost; ties to the most transmitted energy, then the lowest index."""
     e = env.unwrapped
-    costs = np.where(e.action_masks(), np.asarray(costs, dtype=float), np.inf)
+    costs = np.asarray(costs, dtype=float)
+    mask = e.action_masks()
+    if not mask.all():
+        costs = np.where(mask, costs, np.inf)
     tied = np.flatnonzero(costs == costs.min())
-    return int(tied[np.argmax(e.plan_energy_j[tied])])
+    return int(tied[0]) if tied.size == 1 else int(tied[np.argmax(e.plan_energy_j[tied])])
 
 
 class RoundRobin:

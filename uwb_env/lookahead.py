@@ -234,7 +234,7 @@ def lookahead_costs(
         return np.zeros(len(plans))
     x, P, _, _ = scored
     delivering = None if ready_rx is None else _delivering(_plan_table(plans).listening, ready_rx[None], x.shape[0])
-    return position_trace(expected_posterior(x, P, sensor, tracker, plans, q2, delivering)).mean(axis=1)
+    return position_trace(expected_posterior(x, P, sensor, tracker, plans, q2, delivering)).sum(axis=1) / x.shape[0]
 
 
 class _PlanTable:

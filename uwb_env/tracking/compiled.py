@@ -897,7 +897,7 @@ def select_candidates(p, cov, area, max_spread, cap):  # pragma: no cover - comp
 
 @_jit
 def new_track_states(p, cov, p0, cov0, dt, max_speed, accel_std):  # pragma: no cover - compiled
-    """Two-point initial states ``(n, 6)`` and covariances ``(n, 6, 6)`` (Tracker._new_tracks, numpy reference)."""
+    """Two-point initial states (n, 6) and covariances (n, 6, 6); numpy reference: Tracker._new_track_states."""
     n = p.shape[0]
     x = np.zeros((n, _NS))
     P = np.zeros((n, _NS, _NS))

@@ -109,10 +109,6 @@ class TrackSet:
         """The tracks where ``keep`` (N,) is True."""
         return TrackSet(*(getattr(self, f)[keep] for f in _FIELDS))
 
-    def extend(self, other: TrackSet) -> TrackSet:
-        """This set followed by ``other``."""
-        return TrackSet(*(np.concatenate([getattr(self, f), getattr(other, f)]) for f in _FIELDS))
-
     def combined(self) -> tuple[FloatArray, FloatArray]:
         """IMM output: combined means ``(N, 6)`` and covariances ``(N, 6, 6)`` (compiled imm_combine)."""
         return compiled.combine(self.mu, self.x, self.P)
@@ -511,7 +507,7 @@ class Tracker:
                 cfg.initial_accel_std_mps2,
             )
             if x.shape[0]:
-                self.tracks = self.tracks.extend(self._track_set(x, P, scan_index))
+                self._append_tracks(x, P, scan_index)
             self._previous = _Candidates(rest_p, rest_cov, time_s)
             return
         inside = (
@@ -533,15 +529,17 @@ class Tracker:
             else (np.zeros(0, np.int64), np.zeros(0, np.int64))
         )
         if i.size:
-            self.tracks = self.tracks.extend(self._new_tracks(p[i], cov[i], prev.p[j], prev.cov[j], dt, scan_index))
+            self._append_tracks(*self._new_track_states(p[i], cov[i], prev.p[j], prev.cov[j], dt), scan_index)
         rest = np.ones(p.shape[0], bool)
         rest[i] = False
         self._previous = _Candidates(p[rest], cov[rest], time_s)
 
-    def _new_tracks(
-        self, p: FloatArray, cov: FloatArray, p0: FloatArray, cov0: FloatArray, dt: float, scan_index: int
-    ) -> TrackSet:
-        """Tentative tracks from two-point differencing (numpy reference of ``compiled.new_track_states``).
+    def _new_track_states(
+        self, p: FloatArray, cov: FloatArray, p0: FloatArray, cov0: FloatArray, dt: float
+    ) -> tuple[FloatArray, FloatArray]:
+        """States ``(x (n, 6), P (n, 6, 6))`` of tentative tracks from two-point differencing.
+
+        The numpy reference of ``compiled.new_track_states``.
 
         Position now, velocity from the difference.
 
@@ -567,23 +565,25 @@ class Tracker:
         P = np.zeros((n, 6, 6))
         P[:, _PV[:, None], _PV[None, :]] = block
         P[:, 4, 4] = P[:, 5, 5] = cfg.initial_accel_std_mps2**2
-        return self._track_set(x, P, scan_index)
+        return x, P
 
-    def _track_set(self, x: FloatArray, P: FloatArray, scan_index: int) -> TrackSet:
-        """New tentative tracks with states ``x (n, 6)``, ``P (n, 6, 6)`` in every model, fresh ids."""
-        n, cfg = x.shape[0], self.cfg
+    def _append_tracks(self, x: FloatArray, P: FloatArray, scan_index: int) -> None:
+        """Append new tentative tracks with states ``x (n, 6)``, ``P (n, 6, 6)`` in every model, fresh ids.
+
+        Existence ``initial_existence``, uniform model probabilities over the scan's model set, age 0.
+        """
+        n, t = x.shape[0], self.tracks
         mask = self._active_mask(scan_index)
-        active = np.repeat(mask[None], n, axis=0)  # (np.broadcast_to costs more than the copy at these sizes)
         ids = np.arange(self._next_id, self._next_id + n)
         self._next_id += n
-        return TrackSet(
-            ids=ids,
-            confirmed=np.zeros(n, bool),
-            age=np.zeros(n, np.int64),
-            born=np.full(n, scan_index),
-            existence=np.full(n, cfg.initial_existence),
-            mu=np.repeat((mask / mask.sum())[None], n, axis=0),
-            active=active,
-            x=np.repeat(x[:, None], self.r, axis=1),
-            P=np.repeat(P[:, None], self.r, axis=1),
+        self.tracks = TrackSet(
+            ids=np.concatenate((t.ids, ids)),
+            confirmed=np.concatenate((t.confirmed, np.zeros(n, bool))),
+            age=np.concatenate((t.age, np.zeros(n, np.int64))),
+            born=np.concatenate((t.born, np.full(n, scan_index))),
+            existence=np.concatenate((t.existence, np.full(n, self.cfg.initial_existence))),
+            mu=np.concatenate((t.mu, np.broadcast_to(mask / mask.sum(), (n, self.r)))),
+            active=np.concatenate((t.active, np.broadcast_to(mask, (n, self.r)))),
+            x=np.concatenate((t.x, np.broadcast_to(x[:, None], (n, self.r, 6)))),
+            P=np.concatenate((t.P, np.broadcast_to(P[:, None], (n, self.r, 6, 6)))),
         )
