@@ -158,3 +158,30 @@ def test_schedulers_act_as_specified():
     assert my.act(obs, env) == int(np.argmin(env.lookahead_costs()))
     with pytest.raises(ValueError, match="Fixed action=9"):
         Fixed(9).act(obs, env)
+
+
+def _random_tracks(rng, n, r):
+    """n tracks with r models: positive definite P, existences with ties, mixed status."""
+    A = rng.normal(size=(n, 6, 6))
+    P = A @ np.swapaxes(A, -1, -2) + 0.1 * np.eye(6)
+    existence = rng.choice([0.2, 0.5, 0.9, rng.uniform()], size=n)  # repeated values: ties keep index order
+    confirmed = rng.uniform(size=n) < 0.4
+    mu = rng.dirichlet(np.ones(r), size=n)
+    return existence, confirmed, mu, rng.normal(scale=20.0, size=(n, 6)), P
+
+
+@pytest.mark.parametrize("n", [0, 1, 5, 8, 13, 30])
+def test_compiled_track_slots_equal_the_numpy_reference(n):
+    """Slot order (confirmed, then existence, ties by index) and every feature, with fewer and more tracks than slots."""
+    from uwb_env.envs.features import slot_order, track_features, track_features_reference
+
+    rng = np.random.default_rng(n)
+    existence, confirmed, mu, x, P = _random_tracks(rng, n, 4)
+    args = (existence, confirmed, mu, x, P, np.array([10.0, -5.0]), np.array([40.0, 30.0]), 15.0, 8)
+    got, want = track_features(*args), track_features_reference(*args)
+    np.testing.assert_allclose(got, want, rtol=1e-15, atol=0)
+    if n:
+        order = slot_order(existence, confirmed)[:8]
+        np.testing.assert_array_equal(got[: order.size, 1], existence[order])
+        np.testing.assert_array_equal(got[: order.size, 2], confirmed[order])
+    assert not got[min(n, 8) :].any()

@@ -43,6 +43,7 @@ from gymnasium import spaces
 
 from uwb_env import scenarios
 from uwb_env.config import ScenarioConfig, apply_overrides
+from uwb_env.envs.features import track_features
 from uwb_env.lookahead import check_q2, lookahead_costs, sequence_costs
 from uwb_env.metrics import assign, distances, ospa
 from uwb_env.sensing.records import ScanPlan
@@ -288,23 +289,10 @@ class UWBSchedulingEnv(gym.Env):
 
     def _observation(self) -> Any:
         tracks = self.sim.tracker.tracks
-        feats = np.zeros((self.n_slots, self.slot_features))
-        if len(tracks):
-            order = np.lexsort((-tracks.existence, ~tracks.confirmed))[: self.n_slots]  # confirmed, then existence
-            x, P = tracks.combined()
-            x, P = x[order], P[order]
-            n = order.size
-            vx, vy = P[:, 0, 0], P[:, 2, 2]
-            f = feats[:n]
-            f[:, 0] = 1.0
-            f[:, 1] = tracks.existence[order]
-            f[:, 2] = tracks.confirmed[order]
-            f[:, 3:5] = (x[:, 0:3:2] - self._centre) / self._half  # (x, y)
-            f[:, 5:7] = x[:, 1:4:2] / self._v_max  # (vx, vy)
-            f[:, 7] = np.log10(vx) / 4.0
-            f[:, 8] = np.log10(vy) / 4.0
-            f[:, 9] = P[:, 0, 2] / np.sqrt(vx * vy)
-            f[:, 10:] = tracks.mu[order]
+        x, P = tracks.combined()
+        feats = track_features(
+            tracks.existence, tracks.confirmed, tracks.mu, x, P, self._centre, self._half, self._v_max, self.n_slots
+        )
         prev = np.zeros(len(self.plans))
         if self._previous is not None:
             prev[self._previous] = 1.0

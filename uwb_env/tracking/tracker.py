@@ -106,8 +106,9 @@ class TrackSet:
         return int(self.ids.shape[0])
 
     def select(self, keep: BoolArray) -> TrackSet:
-        """The tracks where ``keep`` (N,) is True."""
-        return TrackSet(*(getattr(self, f)[keep] for f in _FIELDS))
+        """The tracks where ``keep`` (N,) is True (copies; ``take`` on the indices is the cheapest at these sizes)."""
+        index = np.flatnonzero(keep)
+        return TrackSet(*(getattr(self, f).take(index, axis=0) for f in _FIELDS))
 
     def combined(self) -> tuple[FloatArray, FloatArray]:
         """IMM output: combined means ``(N, 6)`` and covariances ``(N, 6, 6)`` (compiled imm_combine)."""
@@ -570,20 +571,28 @@ class Tracker:
     def _append_tracks(self, x: FloatArray, P: FloatArray, scan_index: int) -> None:
         """Append new tentative tracks with states ``x (n, 6)``, ``P (n, 6, 6)`` in every model, fresh ids.
 
-        Existence ``initial_existence``, uniform model probabilities over the scan's model set, age 0.
+        Existence ``initial_existence``, uniform model probabilities over the scan's model set, age 0. Each field
+        is filled into a new array by slice assignment (cheaper than concatenation at these sizes).
         """
         n, t = x.shape[0], self.tracks
+        n0 = len(t)
         mask = self._active_mask(scan_index)
-        ids = np.arange(self._next_id, self._next_id + n)
-        self._next_id += n
+
+        def grown(old: np.ndarray, new: object) -> np.ndarray:
+            out = np.empty((n0 + n, *old.shape[1:]), dtype=old.dtype)
+            out[:n0] = old
+            out[n0:] = new
+            return out
+
         self.tracks = TrackSet(
-            ids=np.concatenate((t.ids, ids)),
-            confirmed=np.concatenate((t.confirmed, np.zeros(n, bool))),
-            age=np.concatenate((t.age, np.zeros(n, np.int64))),
-            born=np.concatenate((t.born, np.full(n, scan_index))),
-            existence=np.concatenate((t.existence, np.full(n, self.cfg.initial_existence))),
-            mu=np.concatenate((t.mu, np.broadcast_to(mask / mask.sum(), (n, self.r)))),
-            active=np.concatenate((t.active, np.broadcast_to(mask, (n, self.r)))),
-            x=np.concatenate((t.x, np.broadcast_to(x[:, None], (n, self.r, 6)))),
-            P=np.concatenate((t.P, np.broadcast_to(P[:, None], (n, self.r, 6, 6)))),
+            ids=grown(t.ids, np.arange(self._next_id, self._next_id + n)),
+            confirmed=grown(t.confirmed, False),
+            age=grown(t.age, 0),
+            born=grown(t.born, scan_index),
+            existence=grown(t.existence, self.cfg.initial_existence),
+            mu=grown(t.mu, mask / mask.sum()),
+            active=grown(t.active, mask),
+            x=grown(t.x, x[:, None]),
+            P=grown(t.P, P[:, None]),
         )
+        self._next_id += n
