@@ -172,7 +172,7 @@ def _random_tracks(rng, n, r):
 
 @pytest.mark.parametrize("n", [0, 1, 5, 8, 13, 30])
 def test_compiled_track_slots_equal_the_numpy_reference(n):
-    """Slot order (confirmed, then existence, ties by index) and every feature, with fewer and more tracks than slots."""
+    """Slot order (confirmed, then existence, ties by index) and every feature; fewer and more tracks than slots."""
     from uwb_env.envs.features import slot_order, track_features, track_features_reference
 
     rng = np.random.default_rng(n)
