@@ -79,3 +79,58 @@ def test_assign_is_a_gated_minimum_cost_matching(a, b):
         for perm in itertools.permutations(range(n), min(m, n))
     )
     assert ti.size == most
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.integers(1, 7),
+    st.integers(1, 7),
+    st.integers(0, 2**32 - 1),
+    st.sampled_from(["uniform", "integer", "gated"]),
+)
+def test_hungarian_matches_scipy(n, k, seed, kind):
+    """The compiled Hungarian reaches scipy's optimal total cost on random, tied (integer) and gated (1e12) costs."""
+    from scipy.optimize import linear_sum_assignment
+
+    from uwb_env.metrics import _min_cost_matching
+
+    rng = np.random.default_rng(seed)
+    cost = {"uniform": rng.uniform(0, 10, (n, k)), "integer": rng.integers(0, 3, (n, k)).astype(float)}.get(kind)
+    if cost is None:
+        d = rng.uniform(0, 10, (n, k))
+        cost = np.where(d <= 4.0, d, 1e12)
+    i, j = _min_cost_matching(cost)
+    i0, j0 = linear_sum_assignment(cost)
+    assert i.size == j.size == min(n, k)
+    assert len(set(i.tolist())) == i.size and len(set(j.tolist())) == j.size
+    assert np.all(np.diff(i) > 0)  # rows ascending, like scipy
+    big, big0 = cost[i, j] >= 1e12, cost[i0, j0] >= 1e12
+    assert big.sum() == big0.sum()  # as many pairs outside the gate
+    # and the in-gate part optimal too (to the rounding of potentials of order 1e12: ulp(1e12) = 1.2e-4)
+    assert math.isclose(
+        cost[i, j][~big].sum(), cost[i0, j0][~big0].sum(), rel_tol=1e-12, abs_tol=1e-3 if kind == "gated" else 1e-9
+    )
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(0, 6), st.integers(0, 4), st.integers(0, 2**32 - 1))
+def test_cover_summary_equals_assign_and_ospa(n, k, seed):
+    """The compiled per-scan summary: traces, model probabilities, assignment, errors and OSPA of the numpy code."""
+    from uwb_env.metrics import cover_summary
+
+    rng = np.random.default_rng(seed)
+    confirmed = rng.uniform(size=n) < 0.7
+    x = rng.uniform(-8, 8, (n, 6))
+    A = rng.normal(size=(n, 6, 6))
+    P = A @ np.swapaxes(A, -1, -2)
+    mu = rng.dirichlet(np.ones(3), size=n) if n else np.zeros((0, 3))
+    targets = rng.uniform(-8, 8, (k, 2))
+    trace, mu_sum, ti, gi, errors, o = cover_summary(confirmed, x, P, mu, targets, 5.0, 10.0, 2.0)
+    c = np.flatnonzero(confirmed)
+    pos = x[c][:, [0, 2]]
+    np.testing.assert_array_equal(trace, P[c, 0, 0] + P[c, 2, 2])
+    np.testing.assert_allclose(mu_sum, mu[c].sum(axis=0), rtol=1e-14, atol=1e-15)
+    ti0, gi0 = assign(pos, targets, 5.0)
+    assert sorted(zip(ti.tolist(), gi.tolist(), strict=True)) == sorted(zip(ti0.tolist(), gi0.tolist(), strict=True))
+    np.testing.assert_array_equal(errors, np.linalg.norm(pos[ti] - targets[gi], axis=1))
+    assert math.isclose(o, ospa(pos, targets, 10.0), rel_tol=1e-12, abs_tol=1e-12)

@@ -45,7 +45,7 @@ from uwb_env import scenarios
 from uwb_env.config import ScenarioConfig, apply_overrides
 from uwb_env.envs.features import track_features
 from uwb_env.lookahead import check_q2, lookahead_costs, sequence_costs
-from uwb_env.metrics import assign, distances, ospa
+from uwb_env.metrics import cover_summary
 from uwb_env.sensing.records import ScanPlan
 from uwb_env.sim import ScanResult, Simulator
 from uwb_env.typing import BoolArray, FloatArray
@@ -256,16 +256,13 @@ class UWBSchedulingEnv(gym.Env):
     def _reward_and_info(self, res: ScanResult, action: int) -> tuple[float, dict[str, Any]]:
         t = res.tracks
         x, P = t.combined()
-        conf = np.flatnonzero(t.confirmed)
-        n_conf = conf.size
-        trace = P[conf, 0, 0] + P[conf, 2, 2]
-        mean_trace = float(trace.sum()) / n_conf if n_conf else 0.0
         truth = self.sim.truth
-        alive = truth.alive[res.scan_index]
-        targets = truth.states[res.scan_index][alive][:, 0:3:2]  # (x, y)
-        tracks_pos = x[conf][:, 0:3:2]
-        d = distances(tracks_pos, targets)
-        ti, gi = assign(tracks_pos, targets, self.cover_gate_m, d)
+        targets = truth.states[res.scan_index][truth.alive[res.scan_index]][:, 0:3:2]  # (x, y) of the alive ones
+        trace, mu_sum, ti, gi, errors, ospa_m = cover_summary(
+            t.confirmed, x, P, t.mu, np.ascontiguousarray(targets), self.cover_gate_m, self.cover_gate_m * 2, 2.0
+        )
+        n_conf = trace.size
+        mean_trace = float(trace.sum()) / n_conf if n_conf else 0.0
         missed = targets.shape[0] - gi.size
         energy = float(self.plan_energy_j[action])
         reward = -mean_trace - self.missed_target_penalty_m2 * missed - self.energy_cost_per_j * energy
@@ -279,11 +276,11 @@ class UWBSchedulingEnv(gym.Env):
             "missed_penalty": self.missed_target_penalty_m2 * missed,
             "energy_j": energy,
             "energy_cost": self.energy_cost_per_j * energy,
-            "position_errors_m": d[ti, gi],
-            "ospa_m": ospa(tracks_pos, targets, cutoff_m=self.cover_gate_m * 2, d=d),
+            "position_errors_m": errors,
+            "ospa_m": ospa_m,
             "confirmed_tracks": n_conf,
             "false_tracks": n_conf - ti.size,
-            "model_probabilities": (t.mu[conf].sum(axis=0) / n_conf if n_conf else np.zeros(self.n_models)),
+            "model_probabilities": mu_sum / n_conf if n_conf else mu_sum,
         }
         return float(reward), info
 
