@@ -60,8 +60,6 @@ from uwb_env.tracking.reduction import gate_volume_factor, interpolate, reductio
 from uwb_env.tracking.tracker import Tracker
 from uwb_env.typing import BoolArray, FloatArray
 
-POSITION = np.array([0, 2])
-
 
 def scored_prediction(
     tracker: Tracker, time_s: float, scan_index: int
@@ -111,7 +109,7 @@ def expected_posterior(
         return Pa
     cfg = tracker.cfg
     table = _plan_table(plans)
-    pos = x[:, POSITION]
+    pos = x[:, 0:3:2]  # (x, y)
     for tx, rx in sensor.pairs.tolist():
         if delivering is None:
             used, sent, which, every = table.pair_waveforms(tx, rx)
@@ -140,7 +138,7 @@ def expected_posterior(
             z_pred, _ = measure(names, x, tx_pos, rx_pos)
             rho_w = np.maximum(sensor.clutter_intensity_at(tx, rx, z_pred, R_w), cfg.min_clutter_intensity)
             rho[used] = rho_w[which]  # (every: which is the identity)
-        model = _ReductionModel(q2, m, cfg.gate_probability)
+        model = _reduction_model(q2, m, cfg.gate_probability)
         if tracker.backend == "compiled":
             kinds, wm, wc, sigma_scale, use_ukf = tracker.compiled_filter_args(names)
             if not compiled.expected_update(
@@ -182,6 +180,18 @@ class _ReductionModel:
             return np.full(pd.shape, self.constant)
         lam = rho * self.volume * np.sqrt(np.linalg.det(S))
         return interpolate(self.table, pd, np.log1p(lam))
+
+
+_MODELS: dict[tuple[float | str, int, float], _ReductionModel] = {}
+
+
+def _reduction_model(q2: float | str, m: int, gate_probability: float) -> _ReductionModel:
+    """The (cached, read-only) ``_ReductionModel`` of q2, measurement dimension m and gate probability."""
+    key = (q2, m, gate_probability)
+    model = _MODELS.get(key)
+    if model is None:
+        model = _MODELS[key] = _ReductionModel(q2, m, gate_probability)
+    return model
 
 
 _NO_TABLE = np.zeros((0, 0))
