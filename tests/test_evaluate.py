@@ -113,3 +113,16 @@ def test_command_line_values_parse_as_yaml_and_floats():
     assert isinstance(got["a"], float) and isinstance(got["c.d"], int)
     with pytest.raises(ValueError, match="--env-kwarg 'nokey'"):
         parse_overrides(["nokey"], "--env-kwarg")
+
+
+def test_sign_rank_counts_and_p_value():
+    """Counts of positive / negative paired differences and Wilcoxon's exact two-sided p (zeros dropped).
+
+    Ten positive differences, distinct ranks: the exact null probability of rank sum 55 (the maximum) is 2^-10,
+    two-sided 2 * 2^-10 = 0.00195.
+    """
+    from scripts.evaluate import sign_rank
+
+    d = np.array([0.0, 0.0, *np.arange(1.0, 11.0)])
+    assert sign_rank(d) == (10, 0, "0.002")
+    assert sign_rank(np.array([1.0, -2.0, 0.0, np.nan])) == (1, 1, "-")
