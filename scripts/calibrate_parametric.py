@@ -114,8 +114,9 @@ def main() -> None:
     )
     ap.add_argument("--snr-db", nargs=3, type=float, default=(20.0, 56.0, 2.0), metavar=("FROM", "TO", "STEP"))
     ap.add_argument(
-        "--log-pfa", nargs=2, type=float, default=(-8.0, -2.0), metavar=("FROM", "TO"), help="Pfa grid, 0.5 steps"
+        "--log-pfa", nargs=2, type=float, default=(-8.0, -2.0), metavar=("FROM", "TO"), help="log10 Pfa grid"
     )
+    ap.add_argument("--log-pfa-step", type=float, default=0.5, help="step of the log10 Pfa grid")
     ap.add_argument(
         "--log-kappa", nargs=2, type=float, default=(-6.0, -2.5), metavar=("FROM", "TO"), help="kappa grid, 0.05 steps"
     )
@@ -144,7 +145,7 @@ def main() -> None:
     candidates = [
         (worst(lk, 10.0**lp, quads[m]), lk, 10.0**lp, m)
         for m in args.looks
-        for lp in np.arange(args.log_pfa[0], args.log_pfa[1] + 0.01, 0.5)
+        for lp in np.arange(args.log_pfa[0], args.log_pfa[1] + 0.01, args.log_pfa_step)
         for lk in np.arange(args.log_kappa[0], args.log_kappa[1], 0.05)
     ]
     _, lk0, pfa, looks = min(candidates)
@@ -176,7 +177,7 @@ def main() -> None:
         f"* fitted: clutter residue ratio kappa = {kappa:.4g} (log10 {log_kappa:.3f}), residue looks {looks:g}, "
         f"detector Pfa {pfa:.3g} (the scenario's: kappa {base.sensing.clutter_residue_ratio:g}, looks "
         f"{base.sensing.clutter_residue_looks:g}, Pfa {base.sensing.false_alarm_probability:g})",
-        f"* largest |Pd difference| over the grid (pairs pooled): {max_pooled:.3f} (binomial std of a point at "
+        f"* largest |Pd difference| over the grid (pairs pooled): {max_pooled:.4f} (binomial std of a point at "
         f"Pd 0.5: {0.5 / math.sqrt(args.scans):.3f})",
         f"* false detections per scan and pair (echo undetected, lowest 6 dB of the grid): signal {false_low:.2f}, "
         f"parametric {model_false:.2f} (sensing.clutter.density_per_m2 = {cfg.sensing.clutter.density_per_m2:g} over "
