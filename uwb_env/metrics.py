@@ -24,12 +24,6 @@ import numpy as np
 from uwb_env.typing import BoolArray, FloatArray, IntArray
 
 
-def distances(track_pos: FloatArray, target_pos: FloatArray) -> FloatArray:
-    """``(N, K)`` Euclidean distances [m] between positions ``(N, 2)`` and ``(K, 2)``."""
-    diff = track_pos[:, None] - target_pos[None]
-    return np.sqrt((diff * diff).sum(axis=-1))
-
-
 @nb.njit(cache=True, nogil=True)
 def _hungarian(cost):  # pragma: no cover - compiled
     """Minimum-cost assignment of every row of ``cost`` (n, m), n <= m: the column of each row ``(n,)``.
@@ -85,13 +79,58 @@ def _hungarian(cost):  # pragma: no cover - compiled
 
 @nb.njit(cache=True, nogil=True)
 def _matching(cost):  # pragma: no cover - compiled
-    """``_min_cost_matching`` in compiled code: (row idx, col idx) of min(N, K) pairs, rows ascending."""
+    """Minimum-cost matching of min(N, K) pairs on ``cost`` (N, K): (row idx, col idx), rows ascending.
+
+    The Hungarian algorithm (``_hungarian``) on the cost or its transpose: the optimum of
+    ``scipy.optimize.linear_sum_assignment`` (tested), without the solver's call overhead at a scan's sizes.
+    """
     n, k = cost.shape
     if n <= k:
         return np.arange(n), _hungarian(cost)
     rows = _hungarian(np.ascontiguousarray(cost.T))
     order = np.argsort(rows)
     return rows[order], order
+
+
+def _min_cost_matching(cost: FloatArray) -> tuple[IntArray, IntArray]:
+    """``_matching`` on any float array ``cost`` (N, K)."""
+    return _matching(np.ascontiguousarray(cost, dtype=float))
+
+
+@nb.njit(cache=True, nogil=True)
+def _distances(a, b):  # pragma: no cover - compiled
+    """``distances`` in compiled code."""
+    d = np.empty((a.shape[0], b.shape[0]))
+    for i in range(a.shape[0]):
+        for j in range(b.shape[0]):
+            dx, dy = a[i, 0] - b[j, 0], a[i, 1] - b[j, 1]
+            d[i, j] = math.sqrt(dx * dx + dy * dy)
+    return d
+
+
+@nb.njit(cache=True, nogil=True)
+def _gated_assignment(d, gate_m):  # pragma: no cover - compiled
+    """``assign`` on the distance matrix ``d`` (N, K), N, K >= 1: pairs beyond the gate cost 1e12 and are dropped."""
+    i, j = _matching(np.where(d <= gate_m, d, 1e12))
+    keep = np.array([d[i[c], j[c]] <= gate_m for c in range(i.size)])
+    return i[keep], j[keep]
+
+
+@nb.njit(cache=True, nogil=True)
+def _ospa(d, cutoff_m, order):  # pragma: no cover - compiled
+    """``ospa`` on the distance matrix ``d`` (m, n) of the two sets (either may be empty)."""
+    m, n = d.shape
+    if m == 0 and n == 0:
+        return 0.0
+    if m == 0 or n == 0:
+        return cutoff_m
+    c = np.minimum(d, cutoff_m) ** order
+    i, j = _matching(c)
+    cost = 0.0
+    for a in range(i.size):
+        cost += c[i[a], j[a]]
+    cost += cutoff_m**order * abs(m - n)
+    return (cost / max(m, n)) ** (1.0 / order)
 
 
 @nb.njit(cache=True, nogil=True)
@@ -106,78 +145,40 @@ def cover_summary(confirmed, x, P, mu, targets, gate_m, cutoff_m, order):  # pra
     ``assign``, and the OSPA [m] as ``ospa`` (both from one distance matrix).
     """
     conf = np.flatnonzero(confirmed)
-    n, K, r = conf.size, targets.shape[0], mu.shape[1]
+    n, r = conf.size, mu.shape[1]
     trace = np.empty(n)
     mu_sum = np.zeros(r)
-    d = np.empty((n, K))
+    pos = np.empty((n, 2))
     for a in range(n):
         t = conf[a]
         trace[a] = P[t, 0, 0] + P[t, 2, 2]
+        pos[a, 0], pos[a, 1] = x[t, 0], x[t, 2]
         for j in range(r):
             mu_sum[j] += mu[t, j]
-        for b in range(K):
-            dx, dy = x[t, 0] - targets[b, 0], x[t, 2] - targets[b, 1]
-            d[a, b] = math.sqrt(dx * dx + dy * dy)
-    if n == 0 or K == 0:
-        empty = np.zeros(0, np.int64)
-        return trace, mu_sum, empty, empty, np.zeros(0), (0.0 if n == K else cutoff_m)
-    gated = np.where(d <= gate_m, d, 1e12)
-    i, j = _matching(gated)
-    keep = np.array([d[i[c], j[c]] <= gate_m for c in range(i.size)])
-    ti, gi = i[keep], j[keep]
+    d = _distances(pos, targets)
+    if n == 0 or targets.shape[0] == 0:
+        ti, gi = np.zeros(0, np.int64), np.zeros(0, np.int64)
+    else:
+        ti, gi = _gated_assignment(d, gate_m)
     errors = np.array([d[ti[c], gi[c]] for c in range(ti.size)])
-    cost_matrix = np.minimum(d, cutoff_m) ** order
-    i, j = _matching(cost_matrix)
-    cost = 0.0
-    for c in range(i.size):
-        cost += cost_matrix[i[c], j[c]]
-    cost += cutoff_m**order * abs(n - K)
-    return trace, mu_sum, ti, gi, errors, (cost / max(n, K)) ** (1.0 / order)
+    return trace, mu_sum, ti, gi, errors, _ospa(d, cutoff_m, order)
 
 
-def _min_cost_matching(cost: FloatArray) -> tuple[IntArray, IntArray]:
-    """Minimum-cost matching of min(N, K) pairs on ``cost`` (N, K): (row idx, col idx), rows ascending.
-
-    The compiled Hungarian algorithm (``_hungarian``; the optimum of ``scipy.optimize.linear_sum_assignment``,
-    tested), without the solver's call overhead at the few-tracks sizes of a scan.
-    """
-    n, k = cost.shape
-    if n <= k:
-        return np.arange(n), _hungarian(np.ascontiguousarray(cost, dtype=float))
-    rows = _hungarian(np.ascontiguousarray(cost.T, dtype=float))
-    order = np.argsort(rows)
-    return rows[order], order
+def distances(track_pos: FloatArray, target_pos: FloatArray) -> FloatArray:
+    """``(N, K)`` Euclidean distances [m] between positions ``(N, 2)`` and ``(K, 2)``."""
+    return _distances(np.ascontiguousarray(track_pos, dtype=float), np.ascontiguousarray(target_pos, dtype=float))
 
 
-def assign(
-    track_pos: FloatArray, target_pos: FloatArray, gate_m: float, d: FloatArray | None = None
-) -> tuple[IntArray, IntArray]:
-    """Hungarian assignment of tracks ``(N, 2)`` to targets ``(K, 2)`` within ``gate_m``: (track idx, target idx).
-
-    ``d``: their ``distances`` if already computed.
-    """
+def assign(track_pos: FloatArray, target_pos: FloatArray, gate_m: float) -> tuple[IntArray, IntArray]:
+    """Hungarian assignment of tracks ``(N, 2)`` to targets ``(K, 2)`` within ``gate_m``: (track idx, target idx)."""
     if track_pos.shape[0] == 0 or target_pos.shape[0] == 0:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    d = distances(track_pos, target_pos) if d is None else d
-    i, j = _min_cost_matching(np.where(d <= gate_m, d, 1e12))
-    ok = d[i, j] <= gate_m
-    return i[ok], j[ok]
+    return _gated_assignment(distances(track_pos, target_pos), float(gate_m))
 
 
-def ospa(
-    track_pos: FloatArray, target_pos: FloatArray, cutoff_m: float, order: float = 2.0, d: FloatArray | None = None
-) -> float:
-    """OSPA distance [m] between two finite sets of positions (0 when both are empty); ``d``: their ``distances``."""
-    m, n = track_pos.shape[0], target_pos.shape[0]
-    if m == 0 and n == 0:
-        return 0.0
-    if m == 0 or n == 0:
-        return float(cutoff_m)
-    d = distances(track_pos, target_pos) if d is None else d
-    c = np.minimum(d, cutoff_m) ** order
-    i, j = _min_cost_matching(c)
-    cost = c[i, j].sum() + cutoff_m**order * abs(m - n)
-    return float((cost / max(m, n)) ** (1.0 / order))
+def ospa(track_pos: FloatArray, target_pos: FloatArray, cutoff_m: float, order: float = 2.0) -> float:
+    """OSPA distance [m] between two finite sets of positions (0 when both are empty)."""
+    return float(_ospa(distances(track_pos, target_pos), float(cutoff_m), float(order)))
 
 
 @dataclass(slots=True)

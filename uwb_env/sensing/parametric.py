@@ -749,7 +749,7 @@ class ParametricSensor:
         return derived
 
     def _mean_link(
-        self, tx: int, rx: int, positions: FloatArray, waveforms: IntArray, rcs_m2: float, swerling: int
+        self, tx: int, rx: int, positions: FloatArray, waveforms: IntArray | int, rcs_m2: float, swerling: int
     ) -> tuple[FloatArray, BoolArray, FloatArray, FloatArray]:
         """Mean-SNR link of pair (tx, rx) at ``positions`` (N, 2) for each of ``waveforms`` (W,).
 
@@ -782,7 +782,9 @@ class ParametricSensor:
             )
         return az, ok, snr, pd
 
-    def _link_args(self, tx: int, rx: int, waveforms: IntArray) -> tuple[tuple, FloatArray, FloatArray, FloatArray]:
+    def _link_args(
+        self, tx: int, rx: int, waveforms: IntArray | int
+    ) -> tuple[tuple, FloatArray, FloatArray, FloatArray]:
         """``mean_link``'s arguments of pair (tx, rx) and ``waveforms``: (pair's geometry, k (W,), gain, weights).
 
         Cached per (tx, rx, waveforms) (a handful: the lookahead's sets and single waveforms).

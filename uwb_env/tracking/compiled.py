@@ -77,6 +77,25 @@ def _chol_solve(L, B, X):  # pragma: no cover - compiled
 
 
 @_jit
+def _linearised_h(Pn, C, n, r, L, Cl, Y, H):  # pragma: no cover - compiled
+    """H = C^T P^-1 ``(m, 6)`` into H (kernels.linearised_h) for P = ``Pn`` (6, 6), C = ``C[n, r]`` (6, m).
+
+    L (6, 6), Cl, Y (6, m) are workspaces. False if P is not positive definite.
+    """
+    if not _cholesky(Pn, L):
+        return False
+    m = H.shape[0]
+    for s in range(_NS):
+        for c in range(m):
+            Cl[s, c] = C[n, r, s, c]
+    _chol_solve(L, Cl, Y)  # P^-1 C
+    for c in range(m):
+        for s in range(_NS):
+            H[c, s] = Y[s, c]
+    return True
+
+
+@_jit
 def _wrap(v):  # pragma: no cover - compiled
     """Angle difference wrapped to [-pi, pi) (measurement.wrap_residual), without the float modulo."""
     if -math.pi <= v < math.pi:
@@ -511,15 +530,8 @@ def receiver_update(
             for i in range(M):
                 if not gated[n, r, i]:
                     continue
-                if not have_h:  # H = C^T P^-1, once per track and model that gates something
-                    for s_ in range(_NS):
-                        for c in range(m):
-                            Cl[s_, c] = C[n, r, s_, c]
-                    _cholesky(Pl, L)
-                    _chol_solve(L, Cl, Y)
-                    for c in range(m):
-                        for s in range(_NS):
-                            H[c, s] = Y[s, c]
+                if not have_h:  # once per track and model that gates something
+                    _linearised_h(Pl, C, n, r, L, Cl, Y, H)
                     have_h = True
                 used[i + 1] = True
                 for c in range(m):
@@ -671,15 +683,8 @@ def expected_update(
     Sm = np.empty((m, m))
     Kt = np.empty((m, _NS))
     for n in range(N):
-        if not _cholesky(P[n], L):
+        if not _linearised_h(P[n], C, n, 0, L, Cl, Y, H):
             return False
-        for s_ in range(_NS):
-            for c in range(m):
-                Cl[s_, c] = C[n, 0, s_, c]
-        _chol_solve(L, Cl, Y)  # P^-1 C
-        for c in range(m):
-            for s_ in range(_NS):
-                H[c, s_] = Y[s_, c]
         for a in range(A):
             if pd[a, n] == 0.0:
                 continue
