@@ -21,6 +21,7 @@ from uwb_env.waveforms import (
     gaussian_chirp_fim,
     gaussian_chirp_range_rate_covariance,
     gaussian_pulse_rms_bandwidth,
+    range_doppler_coupling_m,
 )
 from uwb_env.waveforms.toa_models import SEED002_TABLE
 
@@ -66,7 +67,7 @@ def test_fim_determinant_is_snr_squared_and_covariance_is_its_inverse_mapped():
 
 def test_chirp_covariance_hand_values_and_units():
     """kappa = 0.5 us, SNR = 100: sigma_r = c kappa / 10 = 14.99 m; range-rate variance in (m/s)^2."""
-    w = ChirpWaveform(ChirpWaveformConfig("c", 0.5e-6, 40e6, 4e9, "up"))
+    w = ChirpWaveform(ChirpWaveformConfig("c", 0.5e-6, 40e6, 4e9, "up", n_pulses=1))
     R = w.covariance(np.array([100.0]))[0]
     assert math.sqrt(R[0, 0]) == pytest.approx(C * 0.5e-6 / 10.0, rel=1e-12)
     gamma = math.pi * 40e6 / (2 * 0.5e-6)
@@ -78,7 +79,7 @@ def test_chirp_covariance_hand_values_and_units():
 
 
 def test_chirp_covariance_scales_as_one_over_snr():
-    w = ChirpWaveform(ChirpWaveformConfig("c", 1.375e-6, 40e6, 4e9, "down"))
+    w = ChirpWaveform(ChirpWaveformConfig("c", 1.375e-6, 40e6, 4e9, "down"))  # the seed's train of 25 pulses
     R = w.covariance(np.array([2.0, 20.0, 2000.0]))
     np.testing.assert_allclose(R[0] / R[1], 10.0, rtol=1e-12)
     np.testing.assert_allclose(R[0] / R[2], 1000.0, rtol=1e-12)
@@ -86,8 +87,8 @@ def test_chirp_covariance_scales_as_one_over_snr():
 
 
 def test_correlation_sign_up_negative_down_positive():
-    up = ChirpWaveform(ChirpWaveformConfig("u", 1e-6, 40e6, 4e9, "up")).covariance(np.array([10.0]))[0]
-    down = ChirpWaveform(ChirpWaveformConfig("d", 1e-6, 40e6, 4e9, "down")).covariance(np.array([10.0]))[0]
+    up = ChirpWaveform(ChirpWaveformConfig("u", 1e-6, 40e6, 4e9, "up", n_pulses=1)).covariance(np.array([10.0]))[0]
+    down = ChirpWaveform(ChirpWaveformConfig("d", 1e-6, 40e6, 4e9, "down", n_pulses=1)).covariance(np.array([10.0]))[0]
     assert up[0, 1] < 0 < down[0, 1]
     rho = up[0, 1] / math.sqrt(up[0, 0] * up[1, 1])
     g = chirp_rate(1e-6, 40e6, "up")
@@ -95,9 +96,101 @@ def test_correlation_sign_up_negative_down_positive():
     np.testing.assert_allclose(np.diag(up), np.diag(down), rtol=1e-12)
 
 
+def numerical_train_fim(kappa: float, gamma: float, snr: float, n_pulses: int, pri: float) -> np.ndarray:
+    """Fisher information of (tau, omega) of the pulse train of seed 003 eq. 1, by finite differences (phase removed).
+
+    The train is sampled pulse by pulse (each on its own fine grid, the pulses do not overlap), so the check uses
+    only the definition of the signal, not the moments of chirp.py.
+    """
+    u = np.linspace(-8 * kappa, 8 * kappa, 40001)
+    du = u[1] - u[0]
+    centres = (np.arange(n_pulses) - (n_pulses - 1) / 2) * pri
+    t = (centres[:, None] + u[None]).ravel()
+
+    def mu(tau, om, ph):
+        v = (u[None] - tau).repeat(1, 0) + 0 * centres[:, None]
+        env = (math.pi * kappa**2) ** -0.25 * np.exp((1j * gamma - 0.5 / kappa**2) * v**2) / math.sqrt(n_pulses)
+        return (env.ravel() * np.exp(1j * (om * t + ph)))
+
+    steps = (kappa * 1e-4, 1e-4 / (n_pulses * pri), 1e-4)
+    grads = []
+    for i, h in enumerate(steps):
+        d = np.zeros(3)
+        d[i] = h
+        grads.append((mu(*d) - mu(*(-d))) / (2 * h))
+    J = np.array([[2 * snr * np.real(np.sum(np.conj(a) * b) * du) for b in grads] for a in grads])
+    return J[:2, :2] - np.outer(J[:2, 2], J[2, :2]) / J[2, 2]
+
+
+@pytest.mark.parametrize(("kappa", "bandwidth", "sweep", "n_pulses"), [(1e-6, 2e6, "up", 3), (0.5e-6, 4e6, "down", 5)])
+def test_train_fim_matches_numerical_fisher_information(kappa, bandwidth, sweep, n_pulses):
+    gamma = chirp_rate(kappa, bandwidth, sweep)
+    pri = 20 * kappa
+    J = gaussian_chirp_fim(kappa, gamma, np.array([7.0]), n_pulses, pri)[0]
+    np.testing.assert_allclose(J, numerical_train_fim(kappa, gamma, 7.0, n_pulses, pri), rtol=1e-4)
+
+
+def test_train_covariance_is_inverse_fim_mapped_and_single_pulse_limit():
+    kappa, lam, snr = 1.375e-6, C / 4e9, np.array([0.7, 15.0])
+    gamma = chirp_rate(kappa, 40e6, "up")
+    U = np.diag([C, -lam / (2 * math.pi)])
+    J = gaussian_chirp_fim(kappa, gamma, snr, 25, 0.01)
+    R = gaussian_chirp_range_rate_covariance(kappa, gamma, lam, snr, 25, 0.01)
+    np.testing.assert_allclose(R, U @ np.linalg.inv(J) @ U.T, rtol=1e-7)
+    np.testing.assert_allclose(  # B = 1 is the single pulse
+        gaussian_chirp_range_rate_covariance(kappa, gamma, lam, snr, 1, 0.01),
+        gaussian_chirp_range_rate_covariance(kappa, gamma, lam, snr),
+        rtol=1e-12,
+    )
+
+
+def test_seed003_train_hand_values_and_up_down_equivalence():
+    """kappa 1.375 us, 40 MHz, 4 GHz, 25 pulses every 10 ms, SNR 15 (chirp.py "What the train does")."""
+    snr = np.array([15.0])
+    up = ChirpWaveform(ChirpWaveformConfig("u", 1.375e-6, 40e6, 4e9, "up"))
+    down = ChirpWaveform(ChirpWaveformConfig("d", 1.375e-6, 40e6, 4e9, "down"))
+    Ru, Rd = up.covariance(snr)[0], down.covariance(snr)[0]
+    # range: the bandwidth bound c / (pi B sqrt(SNR)) (to the 1/(2 kappa^2) term, 3e-4 of A); range-rate: the dwell
+    assert math.sqrt(Ru[0, 0]) == pytest.approx(C / (math.pi * 40e6 * math.sqrt(15.0)), rel=1e-3)
+    t_b = 0.01**2 * (25**2 - 1) / 12
+    assert math.sqrt(Ru[1, 1]) == pytest.approx(C / 4e9 / (2 * math.pi) / math.sqrt(2 * 15.0 * t_b), rel=1e-6)
+    assert 0.60 < math.sqrt(Ru[0, 0]) < 0.62 and 0.029 < math.sqrt(Ru[1, 1]) < 0.031
+    # up and down differ only in the sign of a correlation of 1.4e-5
+    rho = Ru[0, 1] / math.sqrt(Ru[0, 0] * Ru[1, 1])
+    assert 1.2e-5 < abs(rho) < 1.6e-5 and np.sign(Ru[0, 1]) == -np.sign(Rd[0, 1])
+    np.testing.assert_allclose(np.diag(Ru), np.diag(Rd), rtol=1e-12)
+    # the short chirp: same range accuracy to 0.2 %, i.e. kappa buys energy, not accuracy
+    short = ChirpWaveform(ChirpWaveformConfig("s", 0.5e-6, 40e6, 4e9, "up")).covariance(snr)[0]
+    assert short[0, 0] == pytest.approx(Ru[0, 0], rel=3e-3)
+    assert up.range_rate_ambiguity_mps == pytest.approx(C / 4e9 / 0.01)  # 7.49 m/s
+    assert up.doppler_resolution_hz == pytest.approx(4.0)
+
+
+def test_range_doppler_coupling_peak_of_the_ambiguity_function():
+    """The compressed peak of a Doppler-shifted chirp, found on a fine delay grid, sits where the closed form says."""
+    kappa, lam = 1.375e-6, C / 4e9
+    for sweep in ("up", "down"):
+        gamma = chirp_rate(kappa, 40e6, sweep)
+        rdot = 20.0
+        omega = -2 * math.pi * rdot / lam
+        t = np.linspace(-8 * kappa, 8 * kappa, 200001)
+        dt = t[1] - t[0]
+        s = np.exp((1j * gamma - 0.5 / kappa**2) * t**2)
+        taus = np.linspace(-6e-11, 6e-11, 241)
+        rx = s * np.exp(1j * omega * t)
+        out = [abs(np.sum(rx * np.conj(np.exp((1j * gamma - 0.5 / kappa**2) * (t - tau) ** 2))) * dt) for tau in taus]
+        peak = taus[int(np.argmax(out))]
+        expected = range_doppler_coupling_m(kappa, gamma, lam, np.array([rdot]))[0] / C
+        assert abs(peak - expected) < 1e-12  # half a grid step
+        assert abs(expected * C) == pytest.approx(5.5e-3, rel=0.02)
+
+
 def test_range_variance_grows_with_kappa():
     kappas = [0.25e-6, 0.5e-6, 1.375e-6, 3e-6]
-    var = [ChirpWaveform(ChirpWaveformConfig("c", k, 40e6, 4e9)).covariance(np.array([50.0]))[0, 0, 0] for k in kappas]
+    var = [
+        ChirpWaveform(ChirpWaveformConfig("c", k, 40e6, 4e9, n_pulses=1)).covariance(np.array([50.0]))[0, 0, 0]
+        for k in kappas
+    ]
     assert np.all(np.diff(var) > 0)
     np.testing.assert_allclose(var, C**2 * np.array(kappas) ** 2 / 50.0, rtol=1e-12)
 
@@ -119,7 +212,7 @@ def test_chirp_covariance_symmetric_positive_definite_for_valid_parameters(kappa
     assert np.all(np.isfinite(R))
     np.testing.assert_array_equal(R, R.T)
     assert R[0, 0] > 0 and R[1, 1] > 0
-    # closed-form positive definiteness: det / (R_rr R_dd) = 1 - rho^2 = 1 / (1 + 4 gamma^2 kappa^4) > 0
+    # closed-form positive definiteness: 1 - rho^2 = D / ((kappa^2 / 2 + T_b) A) > 0 (chirp.py)
     assert R[0, 1] ** 2 < R[0, 0] * R[1, 1]
     np.linalg.cholesky(R)  # numerically PD too
 

@@ -5,6 +5,8 @@ from uwb_env.waveforms.chirp import (
     chirp_rate,
     gaussian_chirp_fim,
     gaussian_chirp_range_rate_covariance,
+    pulse_train_time_spread,
+    range_doppler_coupling_m,
 )
 from uwb_env.waveforms.impulse import ImpulseWaveform, gaussian_pulse_rms_bandwidth, toa_crlb_variance
 from uwb_env.waveforms.library import Waveform, WaveformLibrary, build_waveform
@@ -22,5 +24,7 @@ __all__ = [
     "gaussian_chirp_fim",
     "gaussian_chirp_range_rate_covariance",
     "gaussian_pulse_rms_bandwidth",
+    "pulse_train_time_spread",
+    "range_doppler_coupling_m",
     "toa_crlb_variance",
 ]
