@@ -145,9 +145,32 @@ def test_clutter_intensity_is_the_map_times_the_range_rate_density():
     r = d.z[:, 0] - d.R[:, 0, 1] / d.R[:, 1, 1] * d.z[:, 1]
     b = np.clip(np.searchsorted(edges, r, side="right") - 1, 0, dens.size - 1)
     inside = (r >= 0) & (r < edges[-1])
-    var = d.R[:, 1, 1] + 30.0**2 / 3
-    expected = np.where(inside, dens[b], 0.0) * np.exp(-0.5 * d.z[:, 1] ** 2 / var) / np.sqrt(2 * math.pi * var)
+    # the train's range-rate is folded into one ambiguity interval, lambda / T1, where a false alarm is uniform
+    period = sensor.library[d.waveform].range_rate_ambiguity_mps
+    assert np.all(np.abs(d.z[:, 1]) <= period / 2)
+    expected = np.where(inside, dens[b], 0.0) / period
     np.testing.assert_allclose(d.clutter_intensity, expected, rtol=1e-9)
+
+
+def test_target_range_rate_is_measured_folded_with_the_train_noise():
+    """Target detections: the measured range-rate minus the truth, folded, is N(0, R_dd) (pulse-train CRLB)."""
+    cfg = tiny_config(n_scans=400, clutter_density=0.0)
+    sensor, episode, out = run(cfg, 8, [ScanPlan.all_listening(0, 1, 2)])
+    geom = episode.geometry
+    res, sd = [], []
+    for k, scan in enumerate(out, start=1):
+        for d in scan:
+            tgt = d.origin >= 0
+            truth = geom.range_rate[k, d.tx, d.rx, d.origin[tgt]]
+            period = sensor.library[d.waveform].range_rate_ambiguity_mps
+            err = d.z[tgt, 1] - truth
+            res.append(err - period * np.round(err / period))
+            sd.append(np.sqrt(d.R[tgt, 1, 1]))
+            assert np.all(np.abs(d.z[:, 1]) <= period / 2)
+    normalised = np.concatenate(res) / np.concatenate(sd)
+    assert normalised.size > 500
+    assert abs(normalised.mean()) < 4 / math.sqrt(normalised.size)
+    assert normalised.var() == pytest.approx(1.0, abs=5 * math.sqrt(2 / normalised.size))
 
 
 def test_same_seed_same_detections_and_different_seed_differs():

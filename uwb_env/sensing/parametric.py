@@ -20,7 +20,9 @@ For every transmitter-receiver pair and target in a scan:
    rho_i of PDA / LMIPDA): the pair's density of false alarms in bistatic range -- or, for array receivers that
    measure azimuth, in (range, azimuth), broadened by the direction-finding noise -- precomputed by quadrature
    over the area and the scatterers, x the density of a false alarm's measured range-rate,
-   N(0, R_dd + rdot_max^2 / 3) (uniform truth plus measurement noise).
+   N(0, R_dd + rdot_max^2 / 3) (uniform truth plus measurement noise), or 1 / period for a chirp train whose
+   range-rate is measured folded (every measured range-rate, target or not, is folded into the waveform's
+   ambiguity interval lambda / T1: ``fold_range_rate``).
 
 A target is not detected by a pair when it is not alive, beyond ``max_range_m`` from either node, inside the blind
 zone (seed 000 section IV-G), hidden by an opaque wall, or outside the array's field of view.
@@ -232,6 +234,10 @@ class ParametricSensor:
         self._unit_chol_stack = np.stack(self._unit_chol) if self._all_unit_chol else None
         self._unit_cov_stack = np.stack(self._unit_cov) if self._all_unit_chol else None
         self._wavelengths = np.array([w.wavelength_m for w in self.library.waveforms])
+        # Period of the measured range-rate per waveform (lambda / T1 for a chirp train; inf: unambiguous).
+        self.range_rate_period = np.array(
+            [getattr(w, "range_rate_ambiguity_mps", math.inf) for w in self.library.waveforms]
+        )
         self._unit_gain = np.ones((len(self.library), 1))  # no clutter residue: one node, gain 1
         self._unit_weight = np.ones(1)
         self._link_cache: dict[tuple[int, ...], tuple] = {}  # mean_link's arguments per (tx, rx, waveforms...)
@@ -586,6 +592,9 @@ class ParametricSensor:
             ridge = cov[:, 0, 1] / cov[:, 1, 1] if m == 2 else 0.0
             rdot_var = cov[:, 1, 1] if m == 2 else None
             wavelength = self._wavelengths[w]
+        period = self.range_rate_period[w] if m == 2 else None
+        if m == 2:  # the train measures the Doppler modulo 1 / T1: the range-rate is reported folded (chirp.py)
+            rows[:, 2] = fold_range_rate(rows[:, 2], period)
         if self._any_doa:
             key = float(np.max(wavelength))  # the cache is used with one waveform (one carrier) per call
             cached = None if azimuth_cache is None else azimuth_cache.get(key)
@@ -609,7 +618,7 @@ class ParametricSensor:
                 entry = (*entry, self._azimuth_bins(rows[:, col["az"]]))
                 azimuth_cache[key] = entry
             az_bins = entry[2]
-        rows[:, col["rho"]] = self._clutter_intensity(rows, ridge, rdot_var, az_bins)
+        rows[:, col["rho"]] = self._clutter_intensity(rows, ridge, rdot_var, az_bins, period)
 
     # ----------------------------------------------------------------------------------------------------- scan
     def sense(self, episode: EpisodeSensing, k: int, plan: ScanPlan, time_s: float = 0.0) -> tuple[Detections, ...]:
@@ -685,12 +694,17 @@ class ParametricSensor:
         ridge: FloatArray | float,
         rdot_var: FloatArray | None,
         az_bins: np.ndarray | None = None,
+        period: FloatArray | float | None = None,
     ) -> FloatArray:
         """``(n,)`` known clutter map at each row's measurement, azimuth factor apart (module docstring, item 6).
 
         Args:
             rows: detections in the sensor's row layout; ridge: R_rd / R_dd; rdot_var: R_dd ``(n,)`` (None for
-                range-only waveforms).
+                range-only waveforms); period: the range-rate period of the rows' waveforms (scalar or ``(n,)``;
+                inf where unambiguous).
+
+        A folded range-rate of a false alarm whose true range-rate is uniform over +-rdot_max (wider than the
+        period) is uniform over the period: its density is 1 / period there.
 
         For chirps the measurement noise lies along the delay-Doppler ridge, so a false alarm's range error is
         fixed by its range-rate error: the range map is read at the ridge-corrected range r - (R_rd / R_dd) rdot.
@@ -712,7 +726,8 @@ class ParametricSensor:
             rho[i] = self._az_stack[slot[i], np.minimum(br, nr - 1), ba]
         if rdot_var is not None:
             var = rdot_var + self._rdot_var
-            rho = rho * np.exp(-0.5 * rows[:, 2] ** 2 / var) / np.sqrt(2.0 * math.pi * var)
+            gauss = np.exp(-0.5 * rows[:, 2] ** 2 / var) / np.sqrt(2.0 * math.pi * var)
+            rho = rho * np.where(np.isfinite(period), 1.0 / period, gauss)
         return rho
 
     def _covariances(self, waveform_of_row: np.ndarray, snr: FloatArray) -> FloatArray:
@@ -913,7 +928,14 @@ class ParametricSensor:
             rows[:, col["az"]] = np.tile(z[:, m], W)
         Rf = R.reshape(W * N, *R.shape[2:])
         ridge, rdot_var = (Rf[:, 0, 1] / Rf[:, 1, 1], Rf[:, 1, 1]) if m == 2 else (0.0, None)
-        return self._clutter_intensity(rows, ridge, rdot_var).reshape(W, N)
+        period = np.repeat(self.range_rate_period, N) if m == 2 and W == len(self.library) else None
+        if m == 2 and period is None:  # one waveform's covariances at a time
+            period = np.full(W * N, self.range_rate_period[0]) if np.ptp(self.range_rate_period) == 0 else None
+        if m == 2 and period is None:
+            raise ValueError(f"clutter_intensity_at: R has {W} waveforms; expected the library's {len(self.library)}")
+        if m == 2:
+            rows[:, 2] = fold_range_rate(rows[:, 2], period)
+        return self._clutter_intensity(rows, ridge, rdot_var, None, period).reshape(W, N)
 
     def measurement_names(self, rx: int) -> tuple[str, ...]:
         """Measurement components of receiver ``rx``'s detections."""
@@ -938,6 +960,17 @@ class ParametricSensor:
 
 _SQRT_HALF = math.sqrt(0.5)
 _KEY_SPAN = 1e9  # composite sort key: pair key x span + range [m]
+
+
+def fold_range_rate(rdot: FloatArray, period: FloatArray | float) -> FloatArray:
+    """Range-rate folded into [-period / 2, period / 2) (unchanged where the period is inf).
+
+    Args: rdot ``(n,)`` [m/s]; period scalar or ``(n,)`` [m/s] (``ChirpWaveform.range_rate_ambiguity_mps``).
+    """
+    period = np.asarray(period, dtype=float)
+    finite = np.isfinite(period)
+    safe = np.where(finite, period, 1.0)
+    return np.where(finite, rdot - safe * np.floor(rdot / safe + 0.5), rdot)
 
 
 def _wrap(angle: FloatArray) -> FloatArray:
