@@ -13,11 +13,20 @@ Our choices (the seed does not give them):
       the seed's end point) and the whole path takes 34.85 s, i.e. the seed's 140 scans x 0.25 s. The last leg lasts
       until y = 1667.8.
     * Building footprints (opaque), the vegetation points, the array boresights (130 deg, +-50 deg view),
-      peak power 1 W, noise figure 5 dB, Swerling I vehicles of 10 m^2, Pfa 1e-4, a blind zone of one range cell
+      noise figure 5 dB, Swerling I vehicles of 10 m^2, Pfa 1e-4, a blind zone of one range cell
       (c / B = 7.5 m), 25 pulses per scan (0.25 s / 10 ms), half of the clutter around the vegetation.
-    * The receivers' arrays also measure the direction of arrival (``measure_doa``): seed 003 gives each receiver a
-      3-element array but measures range and range-rate only; with the azimuth a single detection locates a target,
-      which the tracker's initiation needs with two receivers.
+    * The seed's regime (section V and section 4.1): each receiver measures bistatic range and range-rate only,
+      z = [r, rdot], its three array elements combined coherently (eq. 6); ``sensing.measure_doa`` adds the azimuth
+      as an option. The tracker initiates from two receivers' iso-range ellipses, the intersection ambiguity
+      resolved over two scans by two-point differencing.
+    * "The SNR experienced is 0.2" is read as the E/N0 of ONE compressed pulse of the short chirp (kappa 0.5 us) at
+      ONE array element, for the 10 m^2 vehicle, at the median link of the path: the transmitter power (4.5 dBm) is
+      set so. Why this reading: the seed plugs its SNR into R(psi) = J^-1 / eta, the bound of one pulse, so eta is
+      one pulse's SNR. Read per raw sample, the matched filter and the 25 x 3 coherent sums would add 35 dB and
+      every waveform would detect with Pd ~ 1 (the old regime, 22-50 dB); read after integration (-7 dB) nothing
+      would be detected. Per pulse, the scan integrates 25 pulses x 3 elements: 10.8 dB (short chirp) and 15.2 dB
+      (long chirp) at the median link, Pd ~ 0.5 and ~ 0.75 (Swerling I, Pfa 1e-4), from 0 to 1 along the path
+      as the radar equation moves the SNR over ~30 dB.
     * A track whose position std exceeds 10 m is deleted (``max_position_std_m``; default 50 m): on streets 30 m
       wide such a track no longer says where a vehicle is. With 50 m, a confirmed false track coasting through a
       shadow (Pd ~ 0 there, so only the survival probability lowers its existence) grew its covariance for ~40
@@ -53,6 +62,9 @@ START = (1950.0, 1500.0)
 END = (2068.8, 1667.8)
 TURN_RATE = math.pi / 20.0
 BUILDING = MaterialConfig("building", loss_db=math.inf)
+# Peak power putting the short chirp's one-pulse, one-element E/N0 at the seed's 0.2 on the path's median link
+# (module docstring; scripts/seed003_regime.py prints the distribution).
+SEED_REGIME_POWER_DBM = 4.5
 
 
 def rectangle_walls(x0: float, x1: float, y0: float, y1: float, material: MaterialConfig) -> tuple[WallConfig, ...]:
@@ -121,7 +133,7 @@ def urban_intersection() -> ScenarioConfig:
         seed_reference="003 (closed-loop active sensing in urban terrain), section V, Fig. 3",
         world=Box(1900.0, 2200.0, 1300.0, 1750.0),
         surveillance_area=Box(1900.0, 2200.0, 1300.0, 1750.0),
-        transmitters=(TransmitterConfig("tx", (2085.0, 1470.5), power_dbm=30.0),),
+        transmitters=(TransmitterConfig("tx", (2085.0, 1470.5), power_dbm=SEED_REGIME_POWER_DBM),),
         receivers=(
             ReceiverConfig("rx1", (2088.0, 1475.0), noise_figure_db=5.0, array=array),
             ReceiverConfig("rx2", (2078.0, 1467.0), noise_figure_db=5.0, array=array),
@@ -145,7 +157,7 @@ def urban_intersection() -> ScenarioConfig:
             false_alarm_probability=1e-4,
             max_range_m=300.0,
             blind_zone_excess_m=7.5,
-            measure_doa=True,
+            measure_doa=False,
             clutter=ClutterConfig(
                 density_per_m2=2.5e-4, discrete_fraction=0.5, discrete_spread_m=3.0, range_rate_max_mps=30.0
             ),
