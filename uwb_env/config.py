@@ -238,18 +238,28 @@ class ClutterConfig:
     ``discrete_fraction`` of them is concentrated around the scene's clutter points (vegetation, seed 003 Fig. 3)
     with Gaussian spread ``discrete_spread_m``, the rest is uniform. Each pair sees an independent realisation,
     thinned to its coverage gate. Range-rates of false detections are uniform in +-``range_rate_max_mps``.
+
+    Chirp trains only: the clutter points also echo as static scatterers of RCS ``scatterer_rcs_m2`` (0: none), whose
+    background-subtraction residue (``residue_fraction`` of their power, Doppler spread ``doppler_spread_hz``)
+    masks targets at blind speeds (``uwb_env.channel.doppler_notch``).
     """
 
     density_per_m2: float = 0.0
     discrete_fraction: float = 0.0
     discrete_spread_m: float = 3.0
     range_rate_max_mps: float = 30.0
+    scatterer_rcs_m2: float = 0.0
+    residue_fraction: float = 1.0
+    doppler_spread_hz: float = 0.0
 
     def __post_init__(self) -> None:
         _in_range("ClutterConfig", "density_per_m2", self.density_per_m2, 0.0, 1.0)
         _in_range("ClutterConfig", "discrete_fraction", self.discrete_fraction, 0.0, 1.0)
         _positive("ClutterConfig", "discrete_spread_m", self.discrete_spread_m)
         _positive("ClutterConfig", "range_rate_max_mps", self.range_rate_max_mps)
+        _in_range("ClutterConfig", "scatterer_rcs_m2", self.scatterer_rcs_m2, 0.0, 1e6)
+        _in_range("ClutterConfig", "residue_fraction", self.residue_fraction, 0.0, 1.0)
+        _in_range("ClutterConfig", "doppler_spread_hz", self.doppler_spread_hz, 0.0, 1e6)
 
 
 @dataclass(frozen=True, slots=True)

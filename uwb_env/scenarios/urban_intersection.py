@@ -27,6 +27,16 @@ Our choices (the seed does not give them):
       would be detected. Per pulse, the scan integrates 25 pulses x 3 elements: 10.8 dB (short chirp) and 15.2 dB
       (long chirp) at the median link, Pd ~ 0.5 and ~ 0.75 (Swerling I, Pfa 1e-4), from 0 to 1 along the path
       as the radar equation moves the SNR over ~30 dB.
+    * The waveform library: the seed's four chirps (kappa 0.5 / 1.375 us, up / down, 25 pulses every 10 ms) and the
+      up-sweeps again with 25 pulses every 7 ms. With the pulse train up- and down-sweep are the same waveform to a
+      centimetre (``uwb_env.waveforms.chirp``) and the long chirp has 4.4 dB more energy than the short one for the
+      same range accuracy, so the seed's library alone leaves nothing to schedule but energy. The second PRI moves
+      the blind speeds (multiples of lambda / T1: 7.5 m/s at 10 ms, 10.7 m/s at 7 ms) where a vehicle's folded
+      Doppler meets the zero-Doppler residue of the vegetation (``uwb_env.channel.doppler_notch``): a radar picks its
+      PRI to keep its targets out of the clutter notch. The vegetation points echo as trees of 10 m^2 whose
+      background-subtraction residue keeps half their power (random phases, seed 003 eq. 2) with a 4 Hz Doppler
+      spread (leaves in a light breeze, 0.15 m/s at lambda = 7.5 cm); these three constants are to be calibrated
+      on the signal path.
     * A track whose position std exceeds 10 m is deleted (``max_position_std_m``; default 50 m): on streets 30 m
       wide such a track no longer says where a vehicle is. With 50 m, a confirmed false track coasting through a
       shadow (Pd ~ 0 there, so only the survival probability lowers its existence) grew its covariance for ~40
@@ -109,16 +119,17 @@ def urban_intersection() -> ScenarioConfig:
     array = UniformLinearArrayConfig(n_elements=3, spacing_m=0.0375, boresight_deg=130.0, field_of_view_deg=50.0)
     chirps = tuple(
         ChirpWaveformConfig(
-            f"k{kappa_us}us-{sweep}",
+            f"k{kappa_us}us-{sweep}" + ("" if pri_ms == 10 else f"-pri{pri_ms}ms"),
             pulse_duration_s=kappa_us * 1e-6,
             bandwidth_hz=40e6,
             carrier_hz=4e9,
             sweep=sweep,
             n_pulses=25,
-            pri_s=0.01,
+            pri_s=pri_ms * 1e-3,
         )
+        for pri_ms, sweeps in ((10, ("up", "down")), (7, ("up",)))
         for kappa_us in (0.5, 1.375)
-        for sweep in ("up", "down")
+        for sweep in sweeps
     )
     path = seed003_path()
     walls = (
@@ -159,7 +170,13 @@ def urban_intersection() -> ScenarioConfig:
             blind_zone_excess_m=7.5,
             measure_doa=False,
             clutter=ClutterConfig(
-                density_per_m2=2.5e-4, discrete_fraction=0.5, discrete_spread_m=3.0, range_rate_max_mps=30.0
+                density_per_m2=2.5e-4,
+                discrete_fraction=0.5,
+                discrete_spread_m=3.0,
+                range_rate_max_mps=30.0,
+                scatterer_rcs_m2=10.0,
+                residue_fraction=0.5,
+                doppler_spread_hz=4.0,
             ),
         ),
     )

@@ -43,6 +43,12 @@ import numpy as np
 from scipy.special import roots_genlaguerre
 
 from uwb_env.channel.coverage import blind_zone, in_field_of_view
+from uwb_env.channel.doppler_notch import (
+    chirp_range_spread_m,
+    clutter_cnr_profile,
+    doppler_notch_gain,
+    train_doppler_spread_hz,
+)
 from uwb_env.channel.radar_equation import bistatic_radar_constant, direct_path_snr, leg_lengths
 from uwb_env.channel.rcs import rcs_fluctuation, swerling_weights
 from uwb_env.channel.walls import pair_obstruction
@@ -241,6 +247,55 @@ class ParametricSensor:
         self._unit_gain = np.ones((len(self.library), 1))  # no clutter residue: one node, gain 1
         self._unit_weight = np.ones(1)
         self._link_cache: dict[tuple[int, ...], tuple] = {}  # mean_link's arguments per (tx, rx, waveforms...)
+        self._notch = self._static_clutter_tables()
+
+    def _static_clutter_tables(self) -> tuple[FloatArray, float, FloatArray, FloatArray, FloatArray] | None:
+        """The zero-Doppler clutter notch of chirp trains (``uwb_env.channel.doppler_notch``), or None.
+
+        Returns ``(cnr (W, T, R, G), grid step [m], pri (W,), sigma_f (W,), wavelength (W,))``: each pair's CNR of
+        the static scatterers over bistatic range (grid from 0 in steps of 0.5 m), per waveform.
+        """
+        cl = self.cfg.sensing.clutter
+        pts = self.layout.clutter_points
+        chirps = [w for w in self.library.waveforms if hasattr(w, "range_rate_ambiguity_mps")]
+        if cl.scatterer_rcs_m2 <= 0.0 or pts.shape[0] == 0 or len(chirps) != len(self.library):
+            return None
+        every = slice(None)
+        lt, lr, _, delay_s, _, covered, unit_snr = self._links(every, every, pts)  # (T, C), (R, C), (T, R, C)
+        r_c = lt[:, None] + lr[None] + SPEED_OF_LIGHT_MPS * delay_s
+        snr_unit = np.where(covered, unit_snr * cl.scatterer_rcs_m2, 0.0)
+        step = 0.5
+        grid = np.arange(0.0, 2.0 * self.cfg.sensing.max_range_m + float(self.baseline.max()) + 20.0, step)
+        W = len(self.library)
+        cnr = np.zeros((W, self.n_tx, self.n_rx, grid.size))
+        for w, wf in enumerate(self.library.waveforms):  # the library: a small fixed set
+            spread = chirp_range_spread_m(wf.config.pulse_duration_s, wf.gamma)
+            for t in range(self.n_tx):  # nodes: a small fixed set
+                for r in range(self.n_rx):
+                    cnr[w, t, r] = self.radar_constant[w, t, r] * clutter_cnr_profile(
+                        r_c[t, r], snr_unit[t, r], grid, spread
+                    )
+        pri = np.array([w.config.pri_s for w in self.library.waveforms])
+        sigma_f = np.array(
+            [train_doppler_spread_hz(w.config.n_pulses, w.config.pri_s, cl.doppler_spread_hz) for w in chirps]
+        )
+        return cnr, step, pri, sigma_f, self._wavelengths.copy()
+
+    def notch_gain(
+        self, w: IntArray, tx: IntArray, rx: IntArray, bistatic_range: FloatArray, range_rate: FloatArray
+    ) -> FloatArray:
+        """SCNR / SNR of targets at ``bistatic_range`` [m] and ``range_rate`` [m/s] (1 without static clutter).
+
+        Every argument broadcasts (waveform, tx and rx indices included); ``uwb_env.channel.doppler_notch``.
+        """
+        if self._notch is None:
+            return np.ones(np.broadcast_shapes(np.shape(bistatic_range), np.shape(w)))
+        cnr_table, step, pri, sigma_f, lam = self._notch
+        g = np.clip(np.rint(np.asarray(bistatic_range) / step).astype(np.int64), 0, cnr_table.shape[-1] - 1)
+        cnr = cnr_table[w, tx, rx, g]
+        return doppler_notch_gain(
+            cnr, range_rate, lam[w], pri[w], sigma_f[w], self.cfg.sensing.clutter.residue_fraction
+        )
 
     def _per_link(self, fn) -> FloatArray:
         """``(W, T, R)`` array of ``fn(waveform, tx config, rx config, (t, r))`` over the library and node pairs."""
@@ -513,6 +568,16 @@ class ParametricSensor:
             scnr = snr_all * gain[..., None]
         else:
             scnr = snr_all
+        if self._notch is not None:  # static clutter at the blind speeds of each waveform's PRI
+            gain = self.notch_gain(
+                np.arange(W)[:, None, None, None, None],
+                np.arange(T)[None, None, :, None, None],
+                np.arange(R)[None, None, None, :, None],
+                geom.bistatic_range[None],
+                geom.range_rate[None],
+            )
+            scnr = scnr * gain
+            snr_all = snr_all * gain  # the clutter shares the target's delay-Doppler cell: R at the SCNR too
         target_hit = np.abs(np.sqrt(scnr) + offset[None]) > level[None]
         if self._all_unit_chol:  # every waveform in one batch (per-row waveform index)
             n_t = e_t.shape[0]
@@ -865,7 +930,14 @@ class ParametricSensor:
         return self._mean_link(tx, rx, positions, int(waveform), rcs_m2, swerling)[3][0]
 
     def expected_measurements(
-        self, tx: int, rx: int, positions: FloatArray, waveforms: IntArray, rcs_m2: float = 1.0, swerling: int = 1
+        self,
+        tx: int,
+        rx: int,
+        positions: FloatArray,
+        waveforms: IntArray,
+        rcs_m2: float = 1.0,
+        swerling: int = 1,
+        velocities: FloatArray | None = None,
     ) -> tuple[FloatArray, FloatArray]:
         """Sensor model of one pair for the lookahead: ``(Pd (W, N), R (W, N, m, m))`` for each of ``waveforms``.
 
@@ -874,9 +946,21 @@ class ParametricSensor:
         receiver appended (columns ``measurement_names(rx)``); uncovered positions get Pd = 0 and R at unit SNR.
         The CRLB waveform models go through one compiled pass (``sensing.compiled.expected_covariance``);
         ``_expected_covariance_reference`` is its numpy reference and serves the other models.
+        With ``velocities`` (N, 2) [m/s] and static clutter, Pd and R are taken at the SCNR of the zero-Doppler
+        clutter notch (:meth:`notch_gain`): what makes the PRI a choice.
         """
         waveforms = np.asarray(waveforms, dtype=np.int64).reshape(-1)
         az, ok, snr, pd = self._mean_link(tx, rx, positions, waveforms, rcs_m2, swerling)
+        if self._notch is not None and velocities is not None:
+            pos = np.asarray(positions, dtype=float).reshape(-1, 2)
+            vel = np.asarray(velocities, dtype=float).reshape(-1, 2)
+            lay = self.layout
+            dt, dr = pos - lay.tx_pos[tx], pos - lay.rx_pos[rx]
+            lt, lr = np.linalg.norm(dt, axis=1), np.linalg.norm(dr, axis=1)
+            rdot = np.einsum("nd,nd->n", dt / np.maximum(lt, 1e-9)[:, None] + dr / np.maximum(lr, 1e-9)[:, None], vel)
+            snr = snr * self.notch_gain(waveforms[:, None], tx, rx, (lt + lr)[None], rdot[None])
+            pfa = self.cfg.sensing.false_alarm_probability
+            pd = np.where(ok, detection_probability(snr.reshape(-1), pfa, swerling).reshape(snr.shape), 0.0)
         if not self._all_unit_chol:
             return pd, self._expected_covariance_reference(rx, az, ok, snr, waveforms)
         lay = self.layout

@@ -1,0 +1,105 @@
+"""The zero-Doppler clutter notch: kernels against their definitions, and the sensor's blind speeds."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from uwb_env import scenarios
+from uwb_env.channel.doppler_notch import (
+    chirp_range_spread_m,
+    clutter_cnr_profile,
+    doppler_notch_gain,
+    fold_doppler_hz,
+    train_doppler_spread_hz,
+)
+from uwb_env.constants import SPEED_OF_LIGHT_MPS as C
+from uwb_env.sensing import ParametricSensor
+from uwb_env.waveforms import chirp_rate
+
+
+def test_range_spread_is_the_std_of_the_compressed_chirp_power():
+    kappa = 1.375e-6
+    gamma = chirp_rate(kappa, 40e6, "up")
+    t = np.linspace(-8 * kappa, 8 * kappa, 200001)
+    dt = t[1] - t[0]
+    s = np.exp((1j * gamma - 0.5 / kappa**2) * t**2)
+    taus = np.linspace(-60e-9, 60e-9, 601)
+    power = np.array(
+        [abs(np.sum(s * np.conj(np.exp((1j * gamma - 0.5 / kappa**2) * (t - u) ** 2))) * dt) ** 2 for u in taus]
+    )
+    std_tau = math.sqrt(np.sum(power * taus**2) / np.sum(power))
+    assert chirp_range_spread_m(kappa, gamma) == pytest.approx(C * std_tau, rel=1e-3)
+    assert chirp_range_spread_m(kappa, gamma) == pytest.approx(C / (math.pi * 40e6), rel=1e-3)  # ~ c / (pi B)
+
+
+def test_doppler_main_lobe_fit_matches_the_dirichlet_kernel_near_zero():
+    B, T1 = 25, 0.01
+    sigma = train_doppler_spread_hz(B, T1)
+    f = np.array([0.05, 0.1, 0.2]) / (B * T1)
+    dirichlet = (np.sin(math.pi * B * T1 * f) / (B * np.sin(math.pi * T1 * f))) ** 2
+    np.testing.assert_allclose(np.exp(-0.5 * (f / sigma) ** 2), dirichlet, rtol=2e-3)
+    assert train_doppler_spread_hz(B, T1, 4.0) == pytest.approx(math.hypot(sigma, 4.0))
+
+
+@settings(max_examples=200, deadline=None)
+@given(f=st.floats(-1e4, 1e4), prf=st.floats(1.0, 1e3))
+def test_fold_lands_in_one_interval_a_whole_number_of_prfs_away(f, prf):
+    g = float(fold_doppler_hz(np.array(f), prf))
+    assert -prf / 2 - 1e-9 <= g < prf / 2 + 1e-9
+    k = (f - g) / prf
+    assert abs(k - round(k)) < 1e-6
+
+
+def test_notch_gain_hand_values_and_blind_speeds():
+    lam, pri, sigma, eta = C / 4e9, 0.01, 2.0, 0.5
+    blind = lam / pri  # 7.49 m/s
+    g = doppler_notch_gain(np.array([100.0] * 4), np.array([0.0, blind, 2 * blind, 0.5 * blind]), lam, pri, sigma, eta)
+    np.testing.assert_allclose(g[:3], 1.0 / (1.0 + 50.0), rtol=1e-9)
+    assert g[3] == pytest.approx(1.0, abs=1e-12)  # 50 Hz away: far outside a 2 Hz notch
+    f = 3.0  # Hz from the clutter line
+    rdot = -f * lam
+    assert float(doppler_notch_gain(100.0, rdot, lam, pri, sigma, eta)) == pytest.approx(
+        1.0 / (1.0 + 50.0 * math.exp(-0.5 * (f / sigma) ** 2)), rel=1e-12
+    )
+
+
+def test_cnr_profile_sums_gaussians():
+    grid = np.array([10.0, 12.0, 30.0])
+    out = clutter_cnr_profile(np.array([10.0, 30.0]), np.array([4.0, 2.0]), grid, 2.0)
+    np.testing.assert_allclose(
+        out, [4.0 + 2.0 * math.exp(-50), 4.0 * math.exp(-0.5) + 2.0 * math.exp(-40.5), 2.0 + 4.0 * math.exp(-50)]
+    )
+
+
+def test_urban_sensor_blind_speeds_differ_by_pri_and_the_lookahead_sees_them():
+    cfg = scenarios.get("urban-intersection")
+    s = ParametricSensor(cfg)
+    names = s.library.names
+    w10, w7 = names.index("k1.375us-up"), names.index("k1.375us-up-pri7ms")
+    lam = s.library[w10].wavelength_m
+    # a scatterer's own bistatic range, where the CNR is largest for rx 0
+    cnr = s._notch[0][w10, 0, 0]
+    r = float(np.argmax(cnr) * s._notch[1])
+    g = s.notch_gain(np.array([w10, w7]), 0, 0, np.array([r, r]), np.array([lam / 0.01, lam / 0.01]))
+    assert g[0] == pytest.approx(1.0 / (1.0 + 0.5 * cnr.max()), rel=1e-6)  # blind at 10 ms
+    assert g[1] > 0.9  # not at 7 ms: 7.49 m/s folds to 3.2 m/s there, 43 Hz from the clutter line
+    # expected_measurements with velocities sees the loss; without them it does not
+    lay = s.layout
+    pos = np.array([[2060.0, 1500.0]])
+    d_t, d_r = pos[0] - lay.tx_pos[0], pos[0] - lay.rx_pos[0]
+    u = d_t / np.linalg.norm(d_t) + d_r / np.linalg.norm(d_r)
+    vel = (lam / 0.01) * u / (u @ u)  # range-rate exactly one blind speed of the 10 ms PRI
+    pd_plain, R_plain = s.expected_measurements(0, 0, pos, np.array([w10, w7]), 10.0, 1)
+    pd_notch, R_notch = s.expected_measurements(0, 0, pos, np.array([w10, w7]), 10.0, 1, velocities=vel[None])
+    gain = s.notch_gain(
+        np.array([w10, w7]), 0, 0, np.full(2, np.linalg.norm(d_t) + np.linalg.norm(d_r)), np.full(2, lam / 0.01)
+    )
+    assert pd_notch[1, 0] == pytest.approx(pd_plain[1, 0], rel=1e-3 * (1 - gain[1]) + 1e-9)
+    assert pd_notch[0, 0] <= pd_plain[0, 0]
+    assert (pd_notch[0, 0] < pd_plain[0, 0]) == (gain[0] < 0.999)
+    np.testing.assert_allclose(R_notch[0, 0], R_plain[0, 0] / gain[0], rtol=1e-9)  # R at the SCNR

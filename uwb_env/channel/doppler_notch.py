@@ -1,0 +1,74 @@
+r"""The zero-Doppler clutter notch of a pulse train: static clutter masks targets whose folded Doppler is near zero.
+
+Seed 003 section 4.1 subtracts the average magnitude image of the scene (background averaging) from each
+delay-Doppler image. Static scatterers (vegetation, the direct path) sit at zero Doppler; their echoes' phases
+fluctuate from scan to scan (seed 003 eq. 2: random phases; wind in the vegetation), so the subtraction leaves a
+residue at zero Doppler in every delay cell that holds clutter. The train samples the Doppler once per PRI T1, so a
+target whose bistatic Doppler f = -rdot / lambda is near a multiple of 1 / T1 -- a blind speed, rdot = k lambda / T1
+-- folds onto the clutter line and competes with the residue. A radar avoids its blind speeds by changing its PRI;
+this is the waveform trade-off the scheduler can exploit (``uwb_env.scenarios.urban_intersection``).
+
+Model (parametric path; its constants are calibrated on the signal path):
+
+    SCNR = SNR / (1 + eta CNR(r) G(f_fold)),
+
+    CNR(r)  = sum_c SNR_c exp(-(r - r_c)^2 / (2 sigma_r^2))   static scatterers' echoes over the compressed pulse,
+              SNR_c from the bistatic radar equation of each visible scatterer (RCS sigma_c) like a target's,
+              sigma_r = c / sqrt(2 (a + gamma^2 / a)), a = 1 / (2 kappa^2): the Gaussian chirp's |chi(tau, 0)|^2,
+    G(f)    = exp(-f^2 / (2 sigma_f^2)),  sigma_f^2 = sigma_D^2 + s^2: the train's Doppler main lobe,
+              |D_B(f)|^2 / B^2 ~ exp(-f^2 / (2 sigma_D^2)) with sigma_D = sqrt(3/2) / (pi T1 sqrt(B^2 - 1)) (curvature
+              of the Dirichlet kernel at 0), widened by the clutter's own Doppler spread s,
+    f_fold  = the target's Doppler folded into [-1/(2 T1), 1/(2 T1)),
+    eta     = the fraction of the clutter power the background subtraction leaves (``ClutterConfig.residue_fraction``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from uwb_env.constants import SPEED_OF_LIGHT_MPS
+from uwb_env.typing import FloatArray
+
+
+def chirp_range_spread_m(kappa: float, gamma: float) -> float:
+    """Std [m] of the compressed Gaussian chirp's power |chi(tau, 0)|^2 = exp(-tau^2 (a + gamma^2 / a)), in range."""
+    a = 1.0 / (2.0 * kappa**2)
+    return SPEED_OF_LIGHT_MPS / math.sqrt(2.0 * (a + gamma**2 / a))
+
+
+def train_doppler_spread_hz(n_pulses: int, pri_s: float, clutter_spread_hz: float = 0.0) -> float:
+    """sigma_f [Hz]: the Gaussian fit of the train's Doppler main lobe (module docstring) and the clutter spread."""
+    sigma_d = math.sqrt(1.5) / (math.pi * pri_s * math.sqrt(max(n_pulses**2 - 1, 1)))
+    return math.sqrt(sigma_d**2 + clutter_spread_hz**2)
+
+
+def clutter_cnr_profile(
+    scatterer_range_m: FloatArray, scatterer_snr: FloatArray, grid_m: FloatArray, range_spread_m: float
+) -> FloatArray:
+    """CNR(r) on ``grid_m`` (G,) from scatterers at bistatic ranges ``(C,)`` with echo SNRs ``(C,)`` (0: invisible).
+
+    Returns ``(G,)``: sum_c SNR_c exp(-(r - r_c)^2 / (2 sigma_r^2)).
+    """
+    d = (grid_m[:, None] - scatterer_range_m[None, :]) / range_spread_m
+    return np.exp(-0.5 * d * d) @ scatterer_snr
+
+
+def fold_doppler_hz(doppler_hz: FloatArray, prf_hz: FloatArray | float) -> FloatArray:
+    """Doppler folded into [-PRF / 2, PRF / 2)."""
+    return doppler_hz - prf_hz * np.floor(doppler_hz / prf_hz + 0.5)
+
+
+def doppler_notch_gain(
+    cnr: FloatArray, range_rate_mps: FloatArray, wavelength_m: FloatArray | float, pri_s: FloatArray | float,
+    sigma_f_hz: FloatArray | float, residue_fraction: float,
+) -> FloatArray:  # fmt: skip
+    """SCNR / SNR = 1 / (1 + eta CNR G(f_fold)) (module docstring); every argument broadcasts.
+
+    Args: cnr: CNR at the target's bistatic range; range_rate_mps [m/s]; wavelength_m [m]; pri_s [s]; sigma_f_hz
+    [Hz]; residue_fraction eta.
+    """
+    f = fold_doppler_hz(-np.asarray(range_rate_mps) / wavelength_m, 1.0 / np.asarray(pri_s))
+    g = np.exp(-0.5 * (f / sigma_f_hz) ** 2)
+    return 1.0 / (1.0 + residue_fraction * cnr * g)
