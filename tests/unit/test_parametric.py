@@ -209,19 +209,22 @@ def test_plans_share_truth_clutter_and_noise_common_random_numbers():
         assert len(c) == 1 and c[0].rx == 0
 
 
-def test_records_are_sorted_by_range_with_names_and_origin():
-    cfg = scenarios.get("urban-intersection")
-    _, _, out = run(cfg, 2, [ScanPlan.all_listening(0, 1, 2)], range(1, 40))
+@pytest.mark.parametrize("doa", [False, True])
+def test_records_are_sorted_by_range_with_names_and_origin(doa):
+    cfg = scenarios.get("urban-intersection", **{"sensing.measure_doa": doa})
+    _, _, out = run(cfg, 2, [ScanPlan.all_listening(2, 1, 2)], range(1, 40))
+    names = ("bistatic_range", "range_rate", "azimuth") if doa else ("bistatic_range", "range_rate")  # the seed's
+    m = len(names)
     n_target = 0
     for dets in out:
         assert [(d.tx, d.rx) for d in dets] == [(0, 0), (0, 1)]
         for d in dets:
             assert np.all(np.diff(d.z[:, 0]) >= 0)
-            assert d.measurement_names == ("bistatic_range", "range_rate", "azimuth")  # arrays measure DOA
-            assert d.z.shape[1] == 3 and d.R.shape == (len(d), 3, 3) and d.snr.shape == (len(d),)
+            assert d.measurement_names == names
+            assert d.z.shape[1] == m and d.R.shape == (len(d), m, m) and d.snr.shape == (len(d),)
             assert np.isfinite(d.z).all() and np.isfinite(d.R).all() and (d.snr > 0).all()
             n_target += int((d.origin >= 0).sum())
-    assert n_target > 40
+    assert n_target > 25  # seed 003 regime: Pd ~0.5-0.8 on ~70 covered links of scans 1-39
 
 
 def target_hits(cfg, rx):
