@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -84,6 +85,8 @@ class Detections:
         clutter_intensity: ``(n,)`` the known clutter map at each measurement: expected false detections per unit
             measurement-space volume (the rho_i of PDA / LMIPDA; 0 where no clutter can fall).
         expected_false_alarms: expected number of false detections of the pair in a scan.
+        range_rate_period_mps: the range-rate column is measured modulo this period (a chirp train's lambda / T1,
+            folded into [-P/2, P/2)); inf where it is unambiguous (``uwb_env.tracking.ambiguity``).
     """
 
     tx: int
@@ -97,6 +100,7 @@ class Detections:
     measurement_names: tuple[str, ...]
     clutter_intensity: FloatArray
     expected_false_alarms: float
+    range_rate_period_mps: float = math.inf
 
     def __len__(self) -> int:
         return int(self.z.shape[0])

@@ -1,0 +1,60 @@
+r"""Folded (ambiguous) range-rate in the tracker: unwrap around the prediction, or marginalise when unresolved.
+
+A chirp train measures the bistatic range-rate modulo its period P = lambda / T1 (``uwb_env.waveforms.chirp``). The
+tracker handles the ambiguity per track, model and pair:
+
+* **resolved** -- the predicted range-rate is known to better than the period, sqrt(S_dd) <= P / k (k =
+  :data:`RESOLVED_STDS` = 6: the +-3 sigma interval fits in one period): the measurement is used in full and its
+  innovation is folded into [-P/2, P/2), which picks the alias nearest the prediction;
+* **unresolved** -- otherwise (a new track's two-point velocity, a long coast): the folded range-rate says nothing
+  a Gaussian update could use, so the component is marginalised. Exactly: its likelihood factor is the uniform 1/P
+  (the truth's alias is anywhere in the period), and it moves neither the mean nor the covariance. This is done
+  without changing the measurement dimension: the cross-covariance column C[:, d] and the off-diagonal S0[d, :]
+  are zeroed, the innovation nu_d is set to 0 and S0_dd to P^2 / (2 pi), so the Gaussian factor of that component
+  is N(0; 0, P^2/(2 pi) + R_dd) = 1/P to within R_dd / P^2 (1e-4 here), K[:, d] = 0 and P+ = P - C S^-1 C^T is
+  the range-only update. The clutter map of the sensor already uses 1/P for a false alarm's folded range-rate, so
+  the PDA likelihood ratio of a marginalised component is exactly 1.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from uwb_env.typing import BoolArray, FloatArray
+
+RESOLVED_STDS = 6.0
+
+
+def fold(nu: FloatArray, period: float) -> FloatArray:
+    """Values folded into [-period / 2, period / 2)."""
+    return nu - period * np.floor(nu / period + 0.5)
+
+
+def unresolved(S0: FloatArray, d: int, period: float) -> BoolArray:
+    """``(...)`` True where the predicted range-rate std sqrt(S0_dd) exceeds period / RESOLVED_STDS.
+
+    Args: S0 ``(..., m, m)`` predicted measurement covariance without R; d the range-rate column; period [m/s].
+    """
+    return S0[..., d, d] > (period / RESOLVED_STDS) ** 2
+
+
+def marginalise(S0: FloatArray, C: FloatArray, d: int, period: float, mask: BoolArray) -> tuple[FloatArray, FloatArray]:
+    """``(S0, C)`` with the range-rate component of the ``mask``-ed rows marginalised (module docstring), copies.
+
+    Args: S0 ``(..., m, m)``, C ``(..., n, m)``, mask ``(...)``.
+    """
+    S0, C = S0.copy(), C.copy()
+    S0[mask, d, :] = 0.0
+    S0[mask, :, d] = 0.0
+    S0[mask, d, d] = period**2 / (2.0 * math.pi)
+    C[mask, :, d] = 0.0
+    return S0, C
+
+
+def fold_innovations(nu: FloatArray, d: int, period: float, mask: BoolArray) -> FloatArray:
+    """Innovations ``(N, r, M, m)`` with the range-rate folded, and zeroed for the ``mask``-ed (N, r) (in place)."""
+    nu[..., d] = fold(nu[..., d], period)
+    nu[mask, :, d] = 0.0
+    return nu
