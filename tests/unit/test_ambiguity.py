@@ -55,7 +55,7 @@ def test_resolved_track_unwraps_the_folded_measurement_to_the_nearest_alias():
     folded = true_rdot - PERIOD * math.floor(true_rdot / PERIOD + 0.5)
     assert abs(folded - true_rdot) > 1.0  # the measurement really is folded
     z = np.array([[z_hat[0, 0] + 0.4, folded]])
-    nu = ambiguity.fold_innovations((z - z_hat)[:, None, None, :].copy(), 1, PERIOD, blind)[:, 0, 0]
+    nu = ambiguity.fold_innovations((z - z_hat)[:, None, None, :].copy(), 1, PERIOD, blind[:, None])[:, 0, 0]
     assert nu[0, 1] == pytest.approx(0.2, abs=1e-9)
     R = np.diag([0.36, 1e-3])[None]
     xu, Pu = joseph_update(x, P, C, S0, R, nu)
