@@ -351,9 +351,9 @@ def target_paths(
         :class:`Paths`, grouped by target then kind (1, 3, 4, 6, 7, 8), scatterers in row-major order.
 
     Notes:
-        The target-dependent legs (target to tx, rx and every scatterer) are tested against the walls here
-        (K (C + 2) segments); the enumeration of the K (1 + 2 C + 3 C^2) candidate paths, their gains and the pruning
-        run in one compiled pass.
+        The target-dependent legs (target to tx, rx and every scatterer: K (C + 2) segments) are tested against the
+        walls by :func:`_target_legs` (the crossing test of ``segments_cross``, compiled); the K (1 + 2 C + 3 C^2)
+        candidate paths, their gains and the pruning run in one compiled pass.
     """
     pos = np.asarray(targets_pos, dtype=float).reshape(-1, 2)
     vel = np.asarray(targets_vel, dtype=float).reshape(-1, 2)
@@ -361,13 +361,10 @@ def target_paths(
     if n_t == 0 or max_bounces < 1:
         return Paths.empty()
     rcs = np.broadcast_to(np.asarray(target_rcs, dtype=float), (n_t,)).copy()
-    nodes = np.stack([geom.tx, geom.rx])
-    d_nk, v_nk = leg_visibility(nodes, pos, geom.wall_a, geom.wall_b)  # (2, K)
-    d_kc, v_kc = leg_visibility(pos, geom.scatterers, geom.wall_a, geom.wall_b)  # (K, C)
-    # projections of v_k on the unit vectors pointing from tx, rx and each scatterer to the target
-    safe_nk = np.maximum(d_nk, 1e-12)
-    pv_n = ((pos[None] - nodes[:, None]) * vel[None]).sum(-1) / safe_nk  # (2, K)
-    pv_c = ((pos[:, None] - geom.scatterers[None]) * vel[:, None]).sum(-1) / np.maximum(d_kc, 1e-12)  # (K, C)
+    nodes = np.ascontiguousarray(np.stack([geom.tx, geom.rx]))
+    d_nk, v_nk, pv_n = _target_legs(pos, vel, nodes, geom.wall_a, geom.wall_b)  # (2, K)
+    d_ck, v_ck, pv_c = _target_legs(pos, vel, geom.scatterers, geom.wall_a, geom.wall_b)  # (C, K)
+    d_kc, v_kc, pv_c = d_ck.T.copy(), v_ck.T.copy(), pv_c.T.copy()
     doa_k = np.arctan2(pos[:, 1] - geom.rx[1], pos[:, 0] - geom.rx[0])
     k = gain_constant(PATH_BOUNCES, wavelength_m, tx_gain, rx_gain)
     c = geom.scatterers.shape[0]
@@ -410,6 +407,40 @@ def target_paths(
         out_i[1, :n].copy(),
         out_i[2:, :n].T.copy(),
     )
+
+
+@_jit
+def _target_legs(pos, vel, points, wall_a, wall_b):  # pragma: no cover - compiled
+    """Legs point -> target: distances ``(N, K)``, line of sight ``(N, K)`` and v_k . u ``(N, K)`` [m/s].
+
+    u the unit vector from the point to the target. Line of sight is ``scene.geometry.segments_cross`` negated:
+    p0 + t d = a + u e with t, u in [0, 1] (|d x e| < 1e-12: parallel, no crossing).
+    """
+    n, k_n, w_n = points.shape[0], pos.shape[0], wall_a.shape[0]
+    dist = np.empty((n, k_n))
+    vis = np.empty((n, k_n), dtype=np.bool_)
+    proj = np.empty((n, k_n))
+    for i in range(n):
+        px, py = points[i, 0], points[i, 1]
+        for k in range(k_n):
+            dx, dy = pos[k, 0] - px, pos[k, 1] - py
+            d = math.sqrt(dx * dx + dy * dy)
+            dist[i, k] = d
+            proj[i, k] = (dx * vel[k, 0] + dy * vel[k, 1]) / max(d, 1e-12)
+            ok = True
+            for w in range(w_n):
+                ex, ey = wall_b[w, 0] - wall_a[w, 0], wall_b[w, 1] - wall_a[w, 1]
+                denom = dx * ey - dy * ex
+                if abs(denom) < 1e-12:
+                    continue
+                wx, wy = wall_a[w, 0] - px, wall_a[w, 1] - py
+                t = (wx * ey - wy * ex) / denom
+                u = (wx * dy - wy * dx) / denom
+                if t >= 0.0 and t <= 1.0 and u >= 0.0 and u <= 1.0:
+                    ok = False
+                    break
+            vis[i, k] = ok
+    return dist, vis, proj
 
 
 @_jit

@@ -573,9 +573,11 @@ def delay_doppler_images(
         pad[..., :half] = z[..., :half]
         pad[..., m * n - half :] = z[..., half:]
         z = pad
-    t = scipy.fft.ifft(z, axis=-1, overwrite_x=m > 1)[..., : grid.n_delay] * (m * grid.sample_rate_hz)
-    img = scipy.fft.fft(np.swapaxes(t, -1, -2), n=grid.n_doppler, axis=-1)
-    return scipy.fft.fftshift(img, axes=-1)
+    t = scipy.fft.ifft(z, axis=-1, overwrite_x=m > 1)[..., : grid.n_delay]
+    # fftshift over Doppler as a modulation of the pulses: X[j - n // 2] = DFT(x_b e^{j 2 pi (n // 2) b / n})
+    nd = grid.n_doppler
+    shift = (m * grid.sample_rate_hz) * np.exp(2j * math.pi * (nd // 2) * np.arange(grid.n_pulses) / nd)
+    return scipy.fft.fft(np.swapaxes(t, -1, -2) * shift, n=nd, axis=-1)
 
 
 def coherent_background(spectra: ComplexArray) -> ComplexArray:
