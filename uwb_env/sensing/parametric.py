@@ -745,6 +745,7 @@ class ParametricSensor:
                     measurement_names=self._names[r],
                     clutter_intensity=rows[lo:hi, col["rho"]],
                     expected_false_alarms=self._expected_false[p],
+                    range_rate_period_mps=float(self.range_rate_period[waveform_of_tx[t]]),
                 )
             )
         return tuple(out)

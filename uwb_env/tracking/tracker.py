@@ -8,7 +8,8 @@ One scan (``Tracker.step``), seed 003 section 4.2, in the order data flows:
    existence prediction by the Markov chain;
 3. receiver by receiver (the pairs' ``Detections`` in order), sequentially: predicted measurement moments per
    track and model (UKF or EKF), per-measurement innovation covariances S_i = S0 + R_i (each detection has its own
-   R, from its SNR), ellipsoidal gating with the chi-square threshold of P_G, LMIPDA over all tracks, then each
+   R, from its SNR; a folded range-rate unwrapped around the prediction or marginalised, ``tracking.ambiguity``),
+   ellipsoidal gating with the chi-square threshold of P_G, LMIPDA over all tracks, then each
    model's PDA update as the exact Gaussian-mixture reduction of {no update, Joseph update with measurement i}
    weighted by beta (this includes the spread-of-innovations term), existence and model probabilities updated;
 4. initiation from the measurements that belong to no track with probability above 1/2
@@ -27,6 +28,7 @@ e.g. the parametric sensor's radar equation at the predicted position); otherwis
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -36,7 +38,7 @@ from scipy.stats import chi2
 from uwb_env.config import TrackerConfig
 from uwb_env.scene.motion_models import model_transition, process_noise
 from uwb_env.sensing.records import Detections
-from uwb_env.tracking import compiled
+from uwb_env.tracking import ambiguity, compiled
 from uwb_env.tracking.imm import imm_mix, restrict_transition, switch_model_sets
 from uwb_env.tracking.initiation import (
     fuse_candidates,
@@ -339,6 +341,12 @@ class Tracker:
         z_hat, S0, C = self.measurement_moments(names, X, PP, tx, rx)
         g2 = self._gates[m]
         nu = wrap_residual(det.z[None, None] - z_hat[:, :, None], ang)  # (N, r, M, m)
+        period = det.range_rate_period_mps
+        if math.isfinite(period) and "range_rate" in names:  # folded range-rate (tracking.ambiguity)
+            d = names.index("range_rate")
+            blind = ambiguity.unresolved(S0, d, period)
+            S0, C = ambiguity.marginalise(S0, C, d, period, blind)
+            nu = ambiguity.fold_innovations(nu, d, period, blind)
         s_diag = np.diagonal(S0, axis1=-2, axis2=-1)[:, :, None] + np.diagonal(det.R, axis1=-2, axis2=-1)[None, None]
         ti, ri, mi = np.nonzero(np.all(nu * nu <= g2 * s_diag, axis=-1))
         S = S0[ti, ri] + det.R[mi]
