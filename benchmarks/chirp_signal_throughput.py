@@ -13,6 +13,13 @@ amplitudes and array phases, matched-filter spectra of both pairs, images, backg
 measurements and the truth origin of every peak.
 
 Run: python benchmarks/chirp_signal_throughput.py [--scans 2000] [--repeats 3] [--profile]
+
+Measured on the 2-core development machine: 1,170-1,270 scans/s (0.8 ms a scan for both pairs; episode setup ~0.1 s).
+Where the time goes (pyinstrument): detection (subtract, peaks, fits, R) 24 %, matched-filter spectra (compiled
+path sum + noise) 24 %, images (two FFTs) 18 %, target paths 14 %, truth origin 10 %, path concatenation 7 %.
+Few detections of the vehicles is physics, not the chain: at the scenario's 4.5 dBm the vehicles sit 25-35 deg off
+the arrays' boresight, where eq. 6's plain sum has |AF|^2 / L = 0.1-0.4 (nulls at +-41.8 deg), so their image SNR is
+-15 to +20 dB along the loop (vehicle 2, 230-280 m beyond the baseline, mostly below 0 dB).
 """
 
 from __future__ import annotations
@@ -187,10 +194,12 @@ def run(n_scans: int, seed: int) -> tuple[float, float, dict]:
     t0 = time.perf_counter()
     ctx, ep = setup(rng)
     t1 = time.perf_counter()
-    counts = {"n": 0, "target": 0, "ghost": 0, "clutter": 0, "noise": 0}
+    counts = {"n": 0, "target": 0, "ghost": 0, "clutter": 0, "noise": 0, "hit0": 0, "hit1": 0}
     for k in range(n_scans):
         for det in scan(ctx, ep, k, rng):
             o = det.origin
+            counts["hit0"] += int((o == 0).any())
+            counts["hit1"] += int((o == 1).any())
             counts["n"] += len(o)
             counts["target"] += int((o >= 0).sum())
             counts["ghost"] += int((o == -2).sum())
@@ -229,6 +238,8 @@ def main() -> None:
     )
     share = {k: counts[k] / max(counts["n"], 1) for k in ("target", "ghost", "clutter", "noise")}
     print(f"peaks per pair-scan {n:.2f}, by truth origin: " + ", ".join(f"{k} {v:.2f}" for k, v in share.items()))
+    pd = [counts[f"hit{i}"] / (2 * args.scans) for i in (0, 1)]
+    print(f"pair-scans detecting vehicle 1 / 2 (Pfa {PFA:g} per cell): {pd[0]:.2f} / {pd[1]:.2f}")
 
 
 if __name__ == "__main__":

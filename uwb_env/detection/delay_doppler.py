@@ -239,6 +239,19 @@ def _rice_mean_ratio(rho: FloatArray) -> FloatArray:
     return 0.5 * math.sqrt(math.pi) * ((1.0 + k) * scipy.special.i0e(0.5 * k) + k * scipy.special.i1e(0.5 * k))
 
 
+@functools.lru_cache(maxsize=32)
+def _rice_threshold_table(false_alarm_probability: float, n_images: int) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Grid of c / sigma ``(801,)`` on [0, 40], the Rice mean ratio m(c) / sigma and X(c) / sigma (module docstring)."""
+    rho = np.linspace(0.0, 40.0, 801)
+    mean = _rice_mean_ratio(rho)
+    var = rho * rho + 1.0 - mean * mean
+    s_eff = np.sqrt(1.0 + 2.0 * var / n_images)  # sigma_eff / sigma
+    x = scipy.stats.rice.isf(false_alarm_probability, rho / (s_eff / math.sqrt(2.0)), scale=s_eff / math.sqrt(2.0))
+    for a in (rho, mean, x):
+        a.flags.writeable = False
+    return rho, mean, x
+
+
 def detection_threshold(background: BackgroundModel, false_alarm_probability: float) -> FloatArray:
     """``(n_delay, n_doppler)`` threshold T on A_k = |A_k| - A_bar for a false-alarm probability per cell.
 
@@ -247,11 +260,7 @@ def detection_threshold(background: BackgroundModel, false_alarm_probability: fl
     """
     sigma = math.sqrt(background.noise_power)
     j = background.n_images
-    rho = np.linspace(0.0, 40.0, 801)
-    mean = _rice_mean_ratio(rho)
-    var = rho * rho + 1.0 - mean * mean
-    s_eff = np.sqrt(1.0 + 2.0 * var / j)  # sigma_eff / sigma
-    x = scipy.stats.rice.isf(false_alarm_probability, rho / (s_eff / math.sqrt(2.0)), scale=s_eff / math.sqrt(2.0))
+    rho, mean, x = _rice_threshold_table(float(false_alarm_probability), int(j))
     ratio = background.mean_magnitude / sigma
     far = rho[-1] + math.sqrt((1.0 + 1.0 / j) / 2.0) * float(scipy.stats.norm.isf(false_alarm_probability))
     # X: the cell's threshold on |A| / sigma; noise-consistent cells (A_bar below the noise mean + 2 std of a J-image

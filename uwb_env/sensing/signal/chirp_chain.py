@@ -82,7 +82,7 @@ and the background model removes its mean; ``clutter_map`` (optional, not in the
 per-delay reference instead.
 
 Performance: per scan the cost is P_target x B x N x (1 + n_out) complex multiply-adds, the noise draw, two short
-FFTs and a magnitude (``benchmarks/chirp_signal_throughput.py``: ~1,270 scans/s of the whole chain for 2 pairs).
+FFTs and a magnitude (``benchmarks/chirp_signal_throughput.py``: 1,170-1,270 scans/s, whole chain, 2 pairs).
 
 Usage (one transmitter, its receivers as "pairs"; ``uwb_env.channel.multipath`` for the paths,
 ``uwb_env.detection.delay_doppler`` for the detection):
