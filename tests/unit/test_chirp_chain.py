@@ -556,3 +556,20 @@ def test_truth_origin_codes():
     peaks_v = np.array([2.1, -1.2, 1.9, 0.1, 0.0, 2.0 + LAM / 0.01, 0.25])  # 6th: folded copy of target 0
     o = dd.truth_origin(peaks_r, peaks_v, path_len, path_rdot, tgt, direct, axes)
     assert o.tolist() == [0, 1, dd.ORIGIN_GHOST, dd.ORIGIN_CLUTTER, dd.ORIGIN_NOISE, 0, dd.ORIGIN_CLUTTER]
+
+
+def test_coherent_clutter_map_removes_the_static_paths_and_keeps_a_mover():
+    """Optional clutter map (not in the seed): the pulse mean of background spectra is the static spectrum, and
+    subtracting it leaves a moving path's image unchanged."""
+    rng = np.random.default_rng(8)
+    grid = cc.chirp_grid(_wf(0.5), [5.0], 300.0)
+    st = cc.static_spectrum(grid, np.zeros(2, np.int64), np.array([60.0, 90.0]), np.array([[50.0], [20.0j]]))
+    kw = {"static": st, "noise_psd_w_per_hz": 0.0, "noise_gain": np.ones(1), "rng": rng}
+    none = (np.zeros(0, np.int64), np.zeros(0), np.zeros(0), np.zeros((0, 1), complex))
+    bg = cc.coherent_background(np.array([cc.matched_filter_spectra(grid, *none, **kw) for _ in range(3)]))
+    np.testing.assert_allclose(bg, st, atol=1e-12 * np.abs(st).max())
+    mover = (np.array([0]), np.array([75.0]), np.array([2.3]), np.array([[1.0 + 0j]]))
+    with_static = cc.delay_doppler_images(grid, cc.matched_filter_spectra(grid, *mover, **kw), clutter_map=bg)
+    kw["static"] = None
+    alone = cc.delay_doppler_images(grid, cc.matched_filter_spectra(grid, *mover, **kw))
+    np.testing.assert_allclose(with_static, alone, atol=1e-9 * np.abs(alone).max())
