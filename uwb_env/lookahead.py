@@ -9,18 +9,21 @@ combined), and for every candidate plan a:
         H       = C^T P_pred^-1                         statistical linearisation of the tracker's filter (the
                                                          unscented transform; the Jacobian for the EKF) at the
                                                          predicted state (action-independent, once per pair)
+        Omega   = S0 - H P_pred H^T                     its linearisation error (0 for the EKF), there too
         R_a     = the waveform's covariance at the mean SNR of the predicted position (sensor model), DOA appended
         P_D,a   = the sensor model's detection probability there (capped like the tracker's)
-        S       = H P_a H^T + R_a,   K = P_a H^T S^-1
+        S       = H P_a H^T + Omega + R_a,   K = P_a H^T S^-1
         P_a    <- P_a - P_D,a q_2 K S K^T                  expected PDA posterior covariance
     cost_a = (1 / T) sum_t trace(P_a^(t) [position block])
 
-Seed 003 evaluates (7) with the UKF covariance update (q_2 = 1, P_D = 1). We keep the detection probability
-(the expected Riccati update of a filter that is updated with probability P_D) and write the information-reduction
-factor q_2 of PDA in clutter (Kershaw and Evans) as an argument: ``q2 = 1`` (the default) is the seed's
-clutter-free value; ``q2 = "pda"`` reads q_2(m, P_D, lambda_G) from ``tracking.reduction`` with the expected
-false measurements in each plan's gate, lambda_G = rho c_m gamma^(m/2) |S|^(1/2), rho the sensor model's clutter
-map at the track's predicted measurement h(x) (``ParametricSensor.clutter_intensity_at``, floored like the
+Seed 003 evaluates (7) with the UKF covariance update (q_2 = 1, P_D = 1): for P_a = P_pred the step above is exactly
+the tracker's UKF update P - K S K^T with S = S0 + R_a and K = C S^-1 (without Omega, S would miss the unscented
+transform's linearisation error and the expected covariance would be overconfident). We keep the detection
+probability (the expected Riccati update of a filter that is updated with probability P_D) and write the
+information-reduction factor q_2 of PDA in clutter (Kershaw and Evans) as an argument: ``q2 = 1`` (the default) is
+the seed's clutter-free value; ``q2 = "pda"`` reads q_2(m, P_D, lambda_G) from ``tracking.reduction`` with the
+expected false measurements in each plan's gate, lambda_G = rho c_m gamma^(m/2) |S|^(1/2), rho the sensor model's
+clutter map at the track's predicted measurement h(x) (``ParametricSensor.clutter_intensity_at``, floored like the
 tracker's). On urban-intersection it changes the myopic scheduler's results by less than their 95 % interval.
 
 The whole computation is batched over plans x tracks, draws nothing and changes no state. With the tracker's
@@ -54,7 +57,7 @@ from uwb_env.sensing.parametric import ParametricSensor
 from uwb_env.sensing.records import ScanPlan
 from uwb_env.tracking import compiled
 from uwb_env.tracking.imm import imm_combine, switch_probabilities
-from uwb_env.tracking.kernels import linearised_h, symmetrise
+from uwb_env.tracking.kernels import linearisation_error, linearised_h, symmetrise
 from uwb_env.tracking.measurement import measure
 from uwb_env.tracking.reduction import gate_volume_factor, interpolate, reduction_table, table_grid
 from uwb_env.tracking.tracker import Tracker
@@ -216,10 +219,10 @@ def _expected_update(
     H is linearised at the predicted ``x (N, 6)``, ``P (N, 6, 6)`` by the tracker's filter; ``R (A, N, m, m)``,
     ``pd (A, N)``, ``rho (A, N)`` the clutter density at the predicted measurement (for q_2 = "pda").
     """
-    _, _, C = tracker.measurement_moments(names, x, P, tx_pos, rx_pos)
+    _, S0, C = tracker.measurement_moments(names, x, P, tx_pos, rx_pos)
     H = linearised_h(P, C)  # (N, m, 6)
     PHt = Pa @ np.swapaxes(H, -1, -2)[None]  # (A, N, 6, m)
-    S = H[None] @ PHt + R
+    S = H[None] @ PHt + linearisation_error(S0, C, H)[None] + R
     K = np.swapaxes(np.linalg.solve(S, np.swapaxes(PHt, -1, -2)), -1, -2)
     gain = model.factor(pd, rho, S) * pd
     return symmetrise(Pa - gain[..., None, None] * (K @ np.swapaxes(PHt, -1, -2)))

@@ -9,7 +9,8 @@ the whole tracker with both back ends on the same detections.
     predict_models     IMM mixing (imm.imm_mix) + exact Kalman prediction (kernels.kf_predict)
     combine            moment matching (kernels.mixture_reduce / imm.imm_combine)
     receiver_update    predicted-measurement moments (UKF or EKF), pre-gate and ellipsoidal gate, gate-truncated
-                       likelihood ratios, LMIPDA (lmipda.lmipda), Joseph updates and the PDA mixture reduction,
+                       likelihood ratios, LMIPDA (lmipda.lmipda), Kalman updates in Joseph form
+                       (kernels.joseph_update) and the PDA mixture reduction,
                        and which measurements some track owns (Tracker._update)
     fuse_candidates, two_point_pairs, range_azimuth_candidates   (initiation)
 
@@ -93,6 +94,24 @@ def _linearised_h(Pn, C, n, r, L, Cl, Y, H):  # pragma: no cover - compiled
         for s in range(_NS):
             H[c, s] = Y[s, c]
     return True
+
+
+@_jit
+def _linearisation_error(S0, C, n, r, H, Om):  # pragma: no cover - compiled
+    """Omega = S0 - H C ``(m, m)`` into Om (kernels.linearisation_error), symmetrised; 0 to rounding for the EKF.
+
+    S0 = ``S0[n, r]``, C = ``C[n, r]``, H = C^T P^-1 from :func:`_linearised_h`.
+    """
+    m = H.shape[0]
+    for c in range(m):
+        for e in range(c + 1):
+            hc, he = 0.0, 0.0
+            for s in range(_NS):
+                hc += H[c, s] * C[n, r, s, e]
+                he += H[e, s] * C[n, r, s, c]
+            v = 0.5 * ((S0[n, r, c, e] + S0[n, r, e, c]) - (hc + he))
+            Om[c, e] = v
+            Om[e, c] = v
 
 
 @_jit
@@ -499,7 +518,8 @@ def receiver_update(
         for r in range(a):
             mu_post[n, r] = mu[n, act[r]] * mu_post[n, r] / one_minus if one_minus > 0.0 else mu[n, act[r]]
 
-    # PDA: Gaussian-mixture reduction of {no update, Joseph update with each gated measurement}
+    # PDA: Gaussian-mixture reduction of {no update, Kalman update with each gated measurement}; each update is
+    # kernels.joseph_update: (I - K H) P (I - K H)^T + K (R_i + Omega) K^T = P - K S_i K^T
     xs = np.empty((M + 1, _NS))
     Ps = np.empty((M + 1, _NS, _NS))
     K = np.empty((_NS, m))
@@ -510,6 +530,7 @@ def receiver_update(
     Kt = np.empty((m, _NS))
     used = np.zeros(M + 1, np.bool_)
     H = np.empty((m, _NS))
+    Om = np.empty((m, m))
     Cl = np.empty((_NS, m))
     Pl = np.empty((_NS, _NS))
     L = np.zeros((_NS, _NS))
@@ -532,6 +553,7 @@ def receiver_update(
                     continue
                 if not have_h:  # once per track and model that gates something
                     _linearised_h(Pl, C, n, r, L, Cl, Y, H)
+                    _linearisation_error(S0, C, n, r, H, Om)
                     have_h = True
                 used[i + 1] = True
                 for c in range(m):
@@ -564,7 +586,7 @@ def receiver_update(
                     for c in range(m):
                         acc = 0.0
                         for e in range(m):
-                            acc += K[s, e] * R[i, e, c]
+                            acc += K[s, e] * (R[i, e, c] + Om[e, c])
                         KR[s, c] = acc
                 for s in range(_NS):
                     for t in range(s + 1):
@@ -656,12 +678,14 @@ def expected_update(
         expected false measurements in the gate lambda_G = rho gate_volume |S|^(1/2), rho ``(A, N)`` the clutter
         density at the predicted measurement and gate_volume = c_m gamma^(m/2).
 
-    Per (a, n): S = H Pa H^T + R, K = Pa H^T S^-1, Pa <- sym(Pa - q_2 P_D K S K^T) (K S K^T = K (Pa H^T)^T).
+    Per (a, n): S = H Pa H^T + Omega + R, K = Pa H^T S^-1, Pa <- sym(Pa - q_2 P_D K S K^T) (K S K^T =
+    K (Pa H^T)^T), with the linearisation error Omega = S0 - H P H^T at the prediction (kernels.linearisation_error;
+    0 for the EKF): where Pa = P this is the filter's own update, S = S0 + R and K = C S^-1.
     Returns ok (False if some P or S was not positive definite).
     """
     A, N = Pa.shape[0], Pa.shape[1]
     m = kinds.shape[0]
-    _, _, C, ok = measurement_moments(
+    _, S0, C, ok = measurement_moments(
         x.reshape(N, 1, _NS),
         P.reshape(N, 1, _NS, _NS),
         np.zeros(1, np.int64),
@@ -678,6 +702,7 @@ def expected_update(
     Cl = np.empty((_NS, m))
     Y = np.empty((_NS, m))
     H = np.empty((m, _NS))
+    Om = np.empty((m, m))
     PHt = np.empty((_NS, m))
     PHtT = np.empty((m, _NS))
     Sm = np.empty((m, m))
@@ -685,6 +710,7 @@ def expected_update(
     for n in range(N):
         if not _linearised_h(P[n], C, n, 0, L, Cl, Y, H):
             return False
+        _linearisation_error(S0, C, n, 0, H, Om)
         for a in range(A):
             if pd[a, n] == 0.0:
                 continue
@@ -697,7 +723,7 @@ def expected_update(
                     PHtT[c, s_] = acc
             for c in range(m):
                 for e in range(m):
-                    acc = R[a, n, c, e]
+                    acc = R[a, n, c, e] + Om[c, e]
                     for t in range(_NS):
                         acc += H[c, t] * PHt[t, e]
                     Sm[c, e] = acc

@@ -5,9 +5,12 @@ Shapes: states ``x (..., n)``, covariances ``P (..., n, n)``, measurements ``(..
 Prediction is exact Kalman (the motion models are linear). A nonlinear measurement is summarised by its predicted
 mean ``z_hat``, its covariance without the noise ``S0`` and the state-measurement cross-covariance ``C``, from
 either the unscented transform (Julier-Uhlmann sigma points, seed 003 section 4.2.3) or the EKF linearisation.
-Updates use the Joseph form with the (statistically) linearised H = C^T P^-1, so every term of the updated
-covariance is positive semi-definite whatever the gain: for the EKF H is the Jacobian and this is the textbook
-Joseph form; for the UKF it equals P - K S K^T up to the UT's own approximation.
+Updates are the linear-MMSE (Kalman) update P+ = P - K S K^T, K = C S^-1, S = S0 + R, written in Joseph form
+with the (statistically) linearised H = C^T P^-1 and the linearisation error Omega = S0 - H P H^T
+(= S0 - C^T P^-1 C) counted as measurement noise (:func:`joseph_update`): for the EKF H is the Jacobian, Omega = 0
+and this is the textbook Joseph form; for the UKF, Omega is the part of the unscented S0 that H does not explain
+(positive semi-definite with non-negative covariance weights, as :class:`UnscentedWeights`' defaults: the Schur
+complement of the sigma points' weighted Gram matrix [[P, C], [C^T, S0]]).
 """
 
 from __future__ import annotations
@@ -116,6 +119,15 @@ def linearised_h(P: FloatArray, C: FloatArray) -> FloatArray:
     return np.swapaxes(np.linalg.solve(P, C), -1, -2)
 
 
+def linearisation_error(S0: FloatArray, C: FloatArray, H: FloatArray) -> FloatArray:
+    """Omega = S0 - H C = S0 - C^T P^-1 C ``(..., m, m)``, symmetrised, for H = C^T P^-1 (:func:`linearised_h`).
+
+    The measurement covariance the statistically linearised H leaves unexplained: 0 (to rounding) for the EKF,
+    where S0 = H P H^T; for the UKF the unscented transform's linearisation error, positive semi-definite.
+    """
+    return symmetrise(S0 - H @ C)
+
+
 def joseph_update(
     x: FloatArray,
     P: FloatArray,
@@ -125,14 +137,23 @@ def joseph_update(
     nu: FloatArray,
     H: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray]:
-    """Single-measurement update in Joseph form with H = C^T P^-1.
+    """Single-measurement Kalman update P+ = P - K S K^T, K = C S^-1, S = S0 + R, in Joseph form.
+
+    P+ = (I - K H) P (I - K H)^T + K (R + Omega) K^T with H = C^T P^-1 and Omega = S0 - H P H^T
+    (:func:`linearisation_error`). Expanding, with H P = C^T and K S = C, this is exactly P - K S K^T; without
+    Omega (the textbook Joseph form with the statistical H) the UKF would subtract K Omega K^T a second time and be
+    overconfident. The Joseph form is kept because every term is positive semi-definite whatever the gain and
+    the update is insensitive to first order to rounding in K: the only cancellation left is the small (m, m)
+    Omega, added to the positive definite R, whereas P - K S K^T cancels in the (n, n) state covariance, which a
+    precise (nearly singular) range / range-rate R shrinks by orders of magnitude in one direction. For the EKF
+    Omega is rounding noise and the update is the textbook Joseph form.
 
     Args:
         x (..., n), P (..., n, n), C (..., n, m), S0 (..., m, m), R (..., m, m), nu (..., m) innovation;
         H (..., m, n) optionally precomputed by :func:`linearised_h`.
 
     Returns:
-        updated x (..., n) and P (..., n, n); K = C (S0 + R)^-1.
+        updated x (..., n) and P (..., n, n).
     """
     S = S0 + R
     K = np.swapaxes(np.linalg.solve(S, np.swapaxes(C, -1, -2)), -1, -2)  # C S^-1 (S symmetric)
@@ -140,7 +161,7 @@ def joseph_update(
         H = linearised_h(P, C)
     n = x.shape[-1]
     A = np.eye(n) - K @ H
-    Pu = A @ P @ np.swapaxes(A, -1, -2) + K @ R @ np.swapaxes(K, -1, -2)
+    Pu = A @ P @ np.swapaxes(A, -1, -2) + K @ (R + linearisation_error(S0, C, H)) @ np.swapaxes(K, -1, -2)
     return x + (K @ nu[..., None])[..., 0], symmetrise(Pu)
 
 
