@@ -56,6 +56,7 @@ import numpy as np
 from uwb_env.sensing.parametric import ParametricSensor
 from uwb_env.sensing.records import ScanPlan
 from uwb_env.tracking import compiled
+from uwb_env.tracking.ambiguity import RESOLVED_STDS
 from uwb_env.tracking.imm import imm_combine, switch_probabilities
 from uwb_env.tracking.kernels import linearisation_error, linearised_h, symmetrise
 from uwb_env.tracking.measurement import measure
@@ -125,7 +126,11 @@ def expected_posterior(
             continue
         names = sensor.measurement_names(rx)
         m = len(names)
-        pd_w, R_w = sensor.expected_measurements(tx, rx, pos, sent, cfg.assumed_rcs_m2, cfg.assumed_swerling)
+        pd_w, R_w = sensor.expected_measurements(
+            tx, rx, pos, sent, cfg.assumed_rcs_m2, cfg.assumed_swerling, velocities=x[:, 1:4:2]
+        )
+        period = np.full(A, np.inf)  # each plan's range-rate period at this pair (tracking.ambiguity)
+        period[used] = _range_rate_periods(sensor)[table.waveforms[used, tx]]
         if every:  # plan a sends waveform sent[a]: no scatter
             pd, R = np.minimum(pd_w, cfg.max_detection_probability), R_w
         else:
@@ -139,18 +144,27 @@ def expected_posterior(
         rho = np.zeros((A, N))
         if q2 == "pda":  # the clutter map at the predicted measurements, floored like the tracker's
             z_pred, _ = measure(names, x, tx_pos, rx_pos)
-            rho_w = np.maximum(sensor.clutter_intensity_at(tx, rx, z_pred, R_w), cfg.min_clutter_intensity)
+            rho_w = np.maximum(sensor.clutter_intensity_at(tx, rx, z_pred, R_w, sent), cfg.min_clutter_intensity)
             rho[used] = rho_w[which]  # (every: which is the identity)
         model = _reduction_model(q2, m, cfg.gate_probability)
         if tracker.backend == "compiled":
             kinds, wm, wc, sigma_scale, use_ukf = tracker.compiled_filter_args(names)
             if not compiled.expected_update(
-                Pa, x, P, kinds, tx_pos, rx_pos, wm, wc, sigma_scale, use_ukf, R, pd, *model.compiled_args(rho)
+                Pa, x, P, kinds, tx_pos, rx_pos, wm, wc, sigma_scale, use_ukf, R, pd, *model.compiled_args(rho), period
             ):
                 raise np.linalg.LinAlgError("lookahead: a covariance is not positive definite")
             continue
-        Pa = _expected_update(Pa, x, P, names, tx_pos, rx_pos, tracker, R, pd, model, rho)
+        Pa = _expected_update(Pa, x, P, names, tx_pos, rx_pos, tracker, R, pd, model, rho, period)
     return Pa
+
+
+def _range_rate_periods(sensor: ParametricSensor) -> FloatArray:
+    """``(W,)`` the range-rate period of every waveform of the library [m/s] (inf: unambiguous), cached."""
+    periods = getattr(sensor, "_lookahead_periods", None)
+    if periods is None:
+        periods = np.array([getattr(w, "range_rate_ambiguity_mps", np.inf) for w in sensor.library.waveforms])
+        sensor._lookahead_periods = periods
+    return periods
 
 
 def check_q2(q2: float | str) -> None:
@@ -213,16 +227,31 @@ def _expected_update(
     pd: FloatArray,
     model: _ReductionModel,
     rho: FloatArray,
+    period: FloatArray | None = None,
 ) -> FloatArray:
     """One pair's expected update of ``Pa`` (A, N, 6, 6), numpy reference of ``compiled.expected_update``.
 
     H is linearised at the predicted ``x (N, 6)``, ``P (N, 6, 6)`` by the tracker's filter; ``R (A, N, m, m)``,
-    ``pd (A, N)``, ``rho (A, N)`` the clutter density at the predicted measurement (for q_2 = "pda").
+    ``pd (A, N)``, ``rho (A, N)`` the clutter density at the predicted measurement (for q_2 = "pda");
+    ``period (A,)`` each plan's range-rate period (None or inf: unambiguous): a plan whose folded range-rate the
+    prediction does not resolve gets no information from it (``tracking.ambiguity.marginalise``).
     """
     _, S0, C = tracker.measurement_moments(names, x, P, tx_pos, rx_pos)
     H = linearised_h(P, C)  # (N, m, 6)
-    PHt = Pa @ np.swapaxes(H, -1, -2)[None]  # (A, N, 6, m)
-    S = H[None] @ PHt + linearisation_error(S0, C, H)[None] + R
+    omega = linearisation_error(S0, C, H)
+    A = Pa.shape[0]
+    H, omega = np.broadcast_to(H[None], (A, *H.shape)), np.broadcast_to(omega[None], (A, *omega.shape))
+    if period is not None and "range_rate" in names and np.isfinite(period).any():
+        d = names.index("range_rate")
+        finite = np.isfinite(period)
+        blind = finite[:, None] & (S0[None, :, d, d] > (np.where(finite, period, 1.0)[:, None] / RESOLVED_STDS) ** 2)
+        H, omega = H.copy(), omega.copy()
+        H[blind, d, :] = 0.0
+        omega[blind, d, :] = 0.0
+        omega[blind, :, d] = 0.0
+        omega[blind, d, d] = (np.broadcast_to(period[:, None], blind.shape)[blind]) ** 2 / (2.0 * np.pi)
+    PHt = Pa @ np.swapaxes(H, -1, -2)  # (A, N, 6, m)
+    S = H @ PHt + omega + R
     K = np.swapaxes(np.linalg.solve(S, np.swapaxes(PHt, -1, -2)), -1, -2)
     gain = model.factor(pd, rho, S) * pd
     return symmetrise(Pa - gain[..., None, None] * (K @ np.swapaxes(PHt, -1, -2)))

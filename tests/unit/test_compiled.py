@@ -211,11 +211,13 @@ def test_expected_update_equals_the_numpy_lookahead(filt, q2):
     pd[1, 2] = 0.0
     rho = 10.0 ** rng.uniform(-3, 1, (A, N))  # from almost no clutter to several false alarms per gate
     model = _ReductionModel(q2, 2, cfg.tracker.gate_probability)
-    ref = _expected_update(Pa, x, P, names, lay.tx_pos[0], lay.rx_pos[1], tracker, R, pd, model, rho)
+    # folded range-rates: plans with a period the predictions do and do not resolve, and an unambiguous one
+    period = np.resize(np.array([np.inf, 7.5, 0.5, 10.7]), A)
+    ref = _expected_update(Pa, x, P, names, lay.tx_pos[0], lay.rx_pos[1], tracker, R, pd, model, rho, period)
     got = Pa.copy()
     kinds, wm, wc, scale, use_ukf = tracker.compiled_filter_args(names)
     assert use_ukf == (filt == "ukf")
-    args = (kinds, lay.tx_pos[0], lay.rx_pos[1], wm, wc, scale, use_ukf, R, pd, *model.compiled_args(rho))
+    args = (kinds, lay.tx_pos[0], lay.rx_pos[1], wm, wc, scale, use_ukf, R, pd, *model.compiled_args(rho), period)
     assert compiled.expected_update(got, x, P, *args)
     np.testing.assert_allclose(got, ref, rtol=1e-10, atol=1e-14)
     np.testing.assert_array_equal(got[1, 2], Pa[1, 2])

@@ -156,6 +156,7 @@ def _compiled_update(x, P, z, R, names, tx, rx, use_ukf, pd=1.0, pg=1.0, rho=1e-
         g2,
         pg,
         True,
+        np.inf,
     )
     assert ok
     return xs[0, 0], Ps[0, 0]
@@ -287,7 +288,20 @@ def test_lookahead_expected_update_at_the_prediction_is_the_filters_update(filt,
         got = Pa.copy()
         kinds, wm, wc, scale, use_ukf = tracker.compiled_filter_args(RR)
         assert compiled.expected_update(
-            got, x[None], P[None], kinds, TX, rx, wm, wc, scale, use_ukf, R, pd, *model.compiled_args(rho)
+            got,
+            x[None],
+            P[None],
+            kinds,
+            TX,
+            rx,
+            wm,
+            wc,
+            scale,
+            use_ukf,
+            R,
+            pd,
+            *model.compiled_args(rho),
+            np.full(2, np.inf),
         )
     for a in range(2):
         _, P_a, _, S, C = textbook(x, P, R[a, 0], np.zeros(2), TX, rx)
@@ -356,7 +370,7 @@ def _track_compiled(names, R, z, x0, P0, filt):
             for j, rx in enumerate(RXS):
                 zh, s0, _, _ = compiled.measurement_moments(x, P, act, kinds, TX, rx, wm, wc, scale, use_ukf)
                 z_hat[k, j, n], S0[k, j, n] = zh[0, 0], s0[0, 0]
-                args = (kinds, TX, rx, wm, wc, scale, use_ukf, np.inf, 1.0, True)
+                args = (kinds, TX, rx, wm, wc, scale, use_ukf, np.inf, 1.0, True, np.inf)
                 _, taken, ok = compiled.receiver_update(x, P, mu, act, psi, pd, z[k, j, n][None], Rm, rho, *args)
                 assert ok and taken[0]
             xs[k, n], Ps[k, n] = x[0, 0], P[0, 0]

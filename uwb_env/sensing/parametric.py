@@ -996,10 +996,13 @@ class ParametricSensor:
             R = _append_block(R.reshape(-1, m - 1, m - 1), var.reshape(-1)).reshape(*var.shape, m, m)
         return R
 
-    def clutter_intensity_at(self, tx: int, rx: int, z: FloatArray, R: FloatArray) -> FloatArray:
+    def clutter_intensity_at(
+        self, tx: int, rx: int, z: FloatArray, R: FloatArray, waveforms: IntArray | None = None
+    ) -> FloatArray:
         """The known clutter map ``(W, N)`` of pair (tx, rx) at measurements ``z`` (N, m) [measurement units].
 
-        ``R`` ``(W, N, m, m)``: the measurement covariances of W waveforms there (columns ``measurement_names(rx)``);
+        ``R`` ``(W, N, m, m)``: the measurement covariances of W waveforms there (columns ``measurement_names(rx)``),
+        the library's ``waveforms`` ``(W,)`` (default: the whole library in order);
         the same map as the detections' ``clutter_intensity`` (module docstring, item 6), e.g. at a track's
         predicted measurement for the lookahead's clutter-dependent q_2.
         """
@@ -1013,12 +1016,11 @@ class ParametricSensor:
             rows[:, col["az"]] = np.tile(z[:, m], W)
         Rf = R.reshape(W * N, *R.shape[2:])
         ridge, rdot_var = (Rf[:, 0, 1] / Rf[:, 1, 1], Rf[:, 1, 1]) if m == 2 else (0.0, None)
-        period = np.repeat(self.range_rate_period, N) if m == 2 and W == len(self.library) else None
-        if m == 2 and period is None:  # one waveform's covariances at a time
-            period = np.full(W * N, self.range_rate_period[0]) if np.ptp(self.range_rate_period) == 0 else None
-        if m == 2 and period is None:
-            raise ValueError(f"clutter_intensity_at: R has {W} waveforms; expected the library's {len(self.library)}")
-        if m == 2:
+        if m == 2:  # each waveform's folded range-rate (waveforms: R's W waveforms; default the whole library)
+            w = np.arange(len(self.library)) if waveforms is None else np.asarray(waveforms, dtype=np.int64).ravel()
+            if w.size != W:
+                raise ValueError(f"clutter_intensity_at: R has {W} waveforms but waveforms names {w.size}")
+            period = np.repeat(self.range_rate_period[w], N)
             rows[:, 2] = fold_range_rate(rows[:, 2], period)
         return self._clutter_intensity(rows, ridge, rdot_var, None, period).reshape(W, N)
 

@@ -24,9 +24,11 @@ import math
 import numba as nb
 import numpy as np
 
+from uwb_env.tracking.ambiguity import RESOLVED_STDS
 from uwb_env.typing import FloatArray
 
 KIND_CODES = {"bistatic_range": 0, "range_rate": 1, "azimuth": 2, "x": 3, "y": 4}
+_RANGE_RATE = 1
 _ANGULAR = 2
 _NS = 6  # state dimension
 _LOG_2PI = math.log(2.0 * math.pi)
@@ -112,6 +114,42 @@ def _linearisation_error(S0, C, n, r, H, Om):  # pragma: no cover - compiled
             v = 0.5 * ((S0[n, r, c, e] + S0[n, r, e, c]) - (hc + he))
             Om[c, e] = v
             Om[e, c] = v
+
+
+@_jit
+def _folded_column(kinds, period):  # pragma: no cover - compiled
+    """The range-rate column when it is folded (a finite period > 0), else -1."""
+    if not (period > 0.0 and period < np.inf):
+        return -1
+    for c in range(kinds.shape[0]):
+        if kinds[c] == _RANGE_RATE:
+            return c
+    return -1
+
+
+@_jit
+def _marginalise_unresolved(S0, C, d, period):  # pragma: no cover - compiled
+    """ambiguity.unresolved + ambiguity.marginalise in place on ``S0 (N, a, m, m)``, ``C (N, a, 6, m)``.
+
+    Returns ``(N, a)`` True where the folded range-rate was marginalised (its std above period / RESOLVED_STDS).
+    """
+    N, a, m = S0.shape[0], S0.shape[1], S0.shape[2]
+    blind = np.zeros((N, a), np.bool_)
+    if d < 0:
+        return blind
+    thr = (period / RESOLVED_STDS) ** 2
+    var = period * period / (2.0 * math.pi)
+    for n in range(N):
+        for r in range(a):
+            if S0[n, r, d, d] > thr:
+                blind[n, r] = True
+                for c in range(m):
+                    S0[n, r, d, c] = 0.0
+                    S0[n, r, c, d] = 0.0
+                S0[n, r, d, d] = var
+                for s_ in range(_NS):
+                    C[n, r, s_, d] = 0.0
+    return blind
 
 
 @_jit
@@ -398,8 +436,9 @@ def _small_mahalanobis(S0, R, nu, n, r, i, m):  # pragma: no cover - compiled
 
 @_jit
 def receiver_update(
-    x, P, mu, act, psi, pd, z, R, rho, kinds, tx, rx, wm, wc, sigma_scale, use_ukf, g2, pg, fixed_existence
-):  # pragma: no cover - compiled
+    x, P, mu, act, psi, pd, z, R, rho, kinds, tx, rx, wm, wc, sigma_scale, use_ukf, g2, pg, fixed_existence,
+    period,
+):  # pragma: no cover - compiled  # fmt: skip
     """LMIPDA + PDA update of every track with one pair's detections (Tracker._update, numpy reference).
 
     Args:
@@ -407,7 +446,8 @@ def receiver_update(
         (the active set); psi, pd ``(N,)``;
         z ``(M, m)``, R ``(M, m, m)``, rho ``(M,)`` clutter intensities (floored); kinds ``(m,)`` codes;
         tx, rx ``(2,)``; wm, wc ``(13,)`` unscented weights, sigma_scale = sqrt(n + lambda); use_ukf (else EKF);
-        g2 chi-square gate; pg gate probability; fixed_existence (PDA).
+        g2 chi-square gate; pg gate probability; fixed_existence (PDA); period: the range-rate's period [m/s]
+        (inf: unambiguous), unwrapped or marginalised per track and model as tracking.ambiguity says.
 
     Returns:
         psi_post ``(N,)``, taken ``(M,)`` (owned with p > 1/2) -- x, P, mu are updated in place --
@@ -416,6 +456,8 @@ def receiver_update(
     N, a = mu.shape[0], act.shape[0]
     M, m = z.shape
     z_hat, S0, C, ok = measurement_moments(x, P, act, kinds, tx, rx, wm, wc, sigma_scale, use_ukf)
+    fold_col = _folded_column(kinds, period)
+    blind = _marginalise_unresolved(S0, C, fold_col, period)
 
     # gating and gate-truncated likelihood ratios
     lam = np.zeros((N, a, M))
@@ -435,6 +477,8 @@ def receiver_update(
                     d = z[i, c] - z_hat[n, r, c]
                     if kinds[c] == _ANGULAR:
                         d = _wrap(d)
+                    elif c == fold_col:  # the alias nearest the prediction, or nothing when unresolved
+                        d = 0.0 if blind[n, r] else d - period * math.floor(d / period + 0.5)
                     nu[n, r, i, c] = d
                     if d * d > g2 * (S0[n, r, c, c] + R[i, c, c]):
                         inside = False
@@ -664,7 +708,7 @@ def read_table(table, grid, pd, log_lam):  # pragma: no cover - compiled
 
 @_jit
 def expected_update(
-    Pa, x, P, kinds, tx, rx, wm, wc, sigma_scale, use_ukf, R, pd, q2, rho, table, grid, gate_volume
+    Pa, x, P, kinds, tx, rx, wm, wc, sigma_scale, use_ukf, R, pd, q2, rho, table, grid, gate_volume, period
 ):  # pragma: no cover - compiled
     """Expected PDA posterior covariances of the lookahead (lookahead.expected_posterior), one pair, in place.
 
@@ -676,7 +720,9 @@ def expected_update(
         update); q2: the information-reduction factor, a constant unless ``table`` (tracking.reduction, shape
         ``(len(PD_GRID), len(LOG_LAMBDA_GRID))``, on ``grid``) is non-empty: then q_2(P_D, lambda_G) with the
         expected false measurements in the gate lambda_G = rho gate_volume |S|^(1/2), rho ``(A, N)`` the clutter
-        density at the predicted measurement and gate_volume = c_m gamma^(m/2).
+        density at the predicted measurement and gate_volume = c_m gamma^(m/2); period ``(A,)`` the range-rate
+        period of each plan's waveform [m/s] (inf: unambiguous): where the prediction does not resolve it
+        (tracking.ambiguity), the plan's range-rate brings no information (its row of H is zero).
 
     Per (a, n): S = H Pa H^T + Omega + R, K = Pa H^T S^-1, Pa <- sym(Pa - q_2 P_D K S K^T) (K S K^T =
     K (Pa H^T)^T), with the linearisation error Omega = S0 - H P H^T at the prediction (kernels.linearisation_error;
@@ -707,6 +753,12 @@ def expected_update(
     PHtT = np.empty((m, _NS))
     Sm = np.empty((m, m))
     Kt = np.empty((m, _NS))
+    Hb = np.empty((m, _NS))
+    Omb = np.empty((m, m))
+    fold_col = -1
+    for c in range(m):
+        if kinds[c] == _RANGE_RATE:
+            fold_col = c
     for n in range(N):
         if not _linearised_h(P[n], C, n, 0, L, Cl, Y, H):
             return False
@@ -714,18 +766,28 @@ def expected_update(
         for a in range(A):
             if pd[a, n] == 0.0:
                 continue
+            Ha, Oma = H, Om
+            pa = period[a]
+            if fold_col >= 0 and pa > 0.0 and pa < np.inf and S0[n, 0, fold_col, fold_col] > (pa / RESOLVED_STDS) ** 2:
+                for c in range(m):  # the marginalised range-rate (ambiguity.marginalise): no row of H, S_dd = P^2/2pi
+                    for t in range(_NS):
+                        Hb[c, t] = 0.0 if c == fold_col else H[c, t]
+                    for e in range(m):
+                        Omb[c, e] = 0.0 if (c == fold_col or e == fold_col) else Om[c, e]
+                Omb[fold_col, fold_col] = pa * pa / (2.0 * math.pi)
+                Ha, Oma = Hb, Omb
             for s_ in range(_NS):
                 for c in range(m):
                     acc = 0.0
                     for t in range(_NS):
-                        acc += Pa[a, n, s_, t] * H[c, t]
+                        acc += Pa[a, n, s_, t] * Ha[c, t]
                     PHt[s_, c] = acc
                     PHtT[c, s_] = acc
             for c in range(m):
                 for e in range(m):
-                    acc = R[a, n, c, e] + Om[c, e]
+                    acc = R[a, n, c, e] + Oma[c, e]
                     for t in range(_NS):
-                        acc += H[c, t] * PHt[t, e]
+                        acc += Ha[c, t] * PHt[t, e]
                     Sm[c, e] = acc
             if not _cholesky(Sm, Ls):
                 return False

@@ -425,6 +425,7 @@ class Tracker:
             self._gates[len(det.measurement_names)],
             cfg.gate_probability,
             cfg.fixed_existence,
+            det.range_rate_period_mps,
         )
         if not ok:
             raise np.linalg.LinAlgError("tracker update: a covariance is not positive definite")
