@@ -763,7 +763,10 @@ class TrackerConfig:
     claims measurements as if it existed; existence is still updated for track management). With a sensor model the
     detection probability of a track is the radar equation's at its predicted position for a target of
     ``assumed_rcs_m2`` and ``assumed_swerling``, capped at ``max_detection_probability`` (one missed detection
-    must not end a track).
+    must not end a track). ``range_rate_noise_floor_mps`` is added in quadrature to every range-rate
+    measurement's std in the filter (and the lookahead): the manoeuvre a scan's motion models do not follow
+    (a deceleration's onset, a turn's entry), which a pulse train's 0.03 m/s range-rate would otherwise turn into
+    a collapse of the IMM onto the wrong model and gated-out detections (0: the sensor's R as it is).
     """
 
     models: tuple[MotionModelConfig, ...] = _SEED003_TRACKER_MODELS
@@ -788,8 +791,10 @@ class TrackerConfig:
     assumed_rcs_m2: float = 1.0
     assumed_swerling: int = 1
     max_detection_probability: float = 0.99
+    range_rate_noise_floor_mps: float = 0.0
 
     def __post_init__(self) -> None:
+        _in_range("TrackerConfig", "range_rate_noise_floor_mps", self.range_rate_noise_floor_mps, 0.0, 1e3)
         if not isinstance(self.models, tuple) or not self.models:
             _fail("TrackerConfig", "models", self.models, "a non-empty tuple of MotionModelConfig")
         names = [m.name for m in self.models]

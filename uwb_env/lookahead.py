@@ -129,6 +129,10 @@ def expected_posterior(
         pd_w, R_w = sensor.expected_measurements(
             tx, rx, pos, sent, cfg.assumed_rcs_m2, cfg.assumed_swerling, velocities=x[:, 1:4:2]
         )
+        if cfg.range_rate_noise_floor_mps > 0.0 and "range_rate" in sensor.measurement_names(rx):
+            d = sensor.measurement_names(rx).index("range_rate")
+            R_w = R_w.copy()
+            R_w[..., d, d] += cfg.range_rate_noise_floor_mps**2  # as the tracker's filter sees it
         period = np.full(A, np.inf)  # each plan's range-rate period at this pair (tracking.ambiguity)
         period[used] = _range_rate_periods(sensor)[table.waveforms[used, tx]]
         if every:  # plan a sends waveform sent[a]: no scatter

@@ -110,7 +110,7 @@ def test_clutter_intensity_at_reads_the_detections_map():
     for w in range(len(sensor.library)):
         for det in sensor.sense(ep, 10, ScanPlan.all_listening(w, sensor.n_tx, sensor.n_rx), 1.0):
             if len(det):
-                rho = sensor.clutter_intensity_at(det.tx, det.rx, det.z, det.R[None])
+                rho = sensor.clutter_intensity_at(det.tx, det.rx, det.z, det.R[None], np.array([det.waveform]))
                 np.testing.assert_allclose(rho[0], det.clutter_intensity, rtol=1e-12)
                 checked += len(det)
     assert checked > 20

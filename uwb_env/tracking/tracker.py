@@ -28,6 +28,7 @@ e.g. the parametric sensor's radar equation at the predicted position); otherwis
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -246,7 +247,7 @@ class Tracker:
         self._pd_cache: dict[tuple[int, int], FloatArray] = {}
         unused = []
         for det in detections:  # receiver by receiver, sequentially (seed 003)
-            used = self._update(det) if len(self.tracks) and len(det) else np.zeros(len(det), bool)
+            used = self._update(self._with_floor(det)) if len(self.tracks) and len(det) else np.zeros(len(det), bool)
             unused.append((det, ~used))
         self._initiate(unused, time_s, scan_index)
         t = self.tracks
@@ -258,6 +259,16 @@ class Tracker:
         if not keep.all():
             self.tracks = t.select(keep)
         return self.tracks
+
+    def _with_floor(self, det: Detections) -> Detections:
+        """``det`` with ``range_rate_noise_floor_mps``^2 added to its range-rate variances (a copy; TrackerConfig)."""
+        floor = self.cfg.range_rate_noise_floor_mps
+        if floor == 0.0 or "range_rate" not in det.measurement_names:
+            return det
+        d = det.measurement_names.index("range_rate")
+        R = det.R.copy()
+        R[:, d, d] += floor**2
+        return dataclasses.replace(det, R=R)
 
     def _predict(self, dt: float, scan_index: int) -> None:
         t = self.tracks
