@@ -342,8 +342,8 @@ def summarise(campaign: Campaign, out: pathlib.Path) -> str:
         for m, label in METRICS.items():
             d = metrics[s][m] - metrics[base][m]
             mean, half, _ = mean_ci(d)
-            b = np.nanmean(metrics[base][m])
-            rel = f"{100 * mean / b:+.1f} %" if b else "-"
+            b, _, _ = mean_ci(metrics[base][m])  # the baseline's mean over its finite runs (nan: none)
+            rel = f"{100 * mean / b:+.1f} %" if b and math.isfinite(b) else "-"
             excl = "yes" if math.isfinite(half) and abs(mean) > half else "no"
             above, below, p = sign_rank(d)
             row = (
