@@ -137,3 +137,37 @@ def test_monostatic_tuples_are_solved_by_gauss_newton_with_the_same_residual():
     # monostatic gradient rows are 2 u: covariance (sum 4 u u^T)^-1 sigma^2
     u = (p - radars) / np.linalg.norm(p - radars, axis=1)[:, None]
     np.testing.assert_allclose(cov[0], 0.0025 * np.linalg.inv(4 * u.T @ u), rtol=1e-6)
+
+
+def test_compiled_ellipse_intersection_equals_the_numpy_reference():
+    """Random 2- and 3-receiver tuples (including ones with no intersection): each start's Gauss-Newton solution
+    is the same to rounding; over several starts the best cost is the same (two receivers' ellipses meet twice
+    with cost ~0 at both, so which mirror point wins the argmin is a matter of rounding)."""
+    from uwb_env.localization.compiled import ellipse_intersection_fast
+    from uwb_env.localization.ellipse import ellipse_intersection
+
+    rng = np.random.default_rng(12)
+    starts = np.array([[0.0, 0.0], [-60.0, -60.0], [60.0, -60.0], [-60.0, 60.0], [60.0, 60.0]])
+    for nu in (2, 3):
+        N = 300
+        tx = np.broadcast_to(np.array([0.0, 0.0]), (N, nu, 2))
+        rx = rng.uniform(-20, 20, (N, nu, 2))
+        target = rng.uniform(-150, 150, (N, 2))
+        q = np.linalg.norm(target[:, None] - tx, axis=-1) + np.linalg.norm(target[:, None] - rx, axis=-1)
+        q = q + rng.normal(scale=0.5, size=q.shape)
+        q[:5] = 1.0  # shorter than the baselines: no intersection
+        var = rng.uniform(0.1, 2.0, (N, nu))
+        for s in range(starts.shape[0]):
+            ref = ellipse_intersection(q, var, tx, rx, starts[s : s + 1])
+            got = ellipse_intersection_fast(q, var, tx, rx, starts[s : s + 1])
+            # compared where Gauss-Newton has converged (one more iteration moves it by < 1 nm): elsewhere an
+            # ill-conditioned tuple amplifies rounding, in both implementations alike
+            more = ellipse_intersection(q, var, tx, rx, starts[s : s + 1], n_iter=16)
+            conv = np.all(np.abs(more[0] - ref[0]) < 1e-9, axis=1)
+            assert conv.mean() > 0.8
+            np.testing.assert_allclose(got[0][conv], ref[0][conv], rtol=1e-7, atol=1e-7)
+            np.testing.assert_allclose(got[1][conv], ref[1][conv], rtol=1e-5, atol=1e-9)
+            np.testing.assert_allclose(got[2][conv], ref[2][conv], rtol=1e-5, atol=1e-9)
+        ref = ellipse_intersection(q, var, tx, rx, starts)
+        got = ellipse_intersection_fast(q, var, tx, rx, starts)
+        assert np.mean(np.isclose(got[2], ref[2], rtol=1e-5, atol=1e-8)) > 0.97

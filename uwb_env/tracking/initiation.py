@@ -24,7 +24,7 @@ import itertools
 import numpy as np
 from scipy.stats import chi2
 
-from uwb_env.localization.ellipse import ellipse_intersection
+from uwb_env.localization.compiled import ellipse_intersection_fast
 from uwb_env.typing import BoolArray, FloatArray
 
 
@@ -101,7 +101,7 @@ def range_only_candidates(
     if not rows:
         return np.zeros((0, 2)), np.zeros((0, 2, 2))
     r, v, t, x = (np.concatenate([row[i] for row in rows]) for i in range(4))
-    p, cov, cost = ellipse_intersection(r, v, t, x, starts)
+    p, cov, cost = ellipse_intersection_fast(r, v, t, x, starts)  # the compiled twin of ellipse_intersection
     ok = (p[:, 0] >= area[0]) & (p[:, 0] <= area[1]) & (p[:, 1] >= area[2]) & (p[:, 1] <= area[3])
     if nu > 2:
         ok &= cost <= chi2.ppf(residual_probability, nu - 2)
