@@ -113,8 +113,8 @@ def test_invalid_actions_raise_naming_the_value(bad):
 def test_bad_env_arguments_raise():
     with pytest.raises(ValueError, match="action_kind='x'"):
         gym.make("uwb_env/UrbanWaveform-v0", action_kind="x")
-    with pytest.raises(ValueError, match="impulse waveforms only"):  # chirps have no signal path yet
-        gym.make("uwb_env/UrbanWaveform-v0", fidelity="signal")
+    with pytest.raises(ValueError, match="measure_doa = True"):  # the chirp signal path measures no azimuth
+        gym.make("uwb_env/UrbanWaveform-v0", fidelity="signal", **{"sensing.measure_doa": True})
     with pytest.raises(ValueError, match="fidelity='exact'"):
         gym.make("uwb_env/UrbanWaveform-v0", fidelity="exact")
     with pytest.raises(ValueError, match="subset_size=7"):

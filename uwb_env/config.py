@@ -524,6 +524,51 @@ _WAVEFORM_TYPES = (ChirpWaveformConfig, ImpulseWaveformConfig)
 
 # ---------------------------------------------------------------------------------------------- sensing, tracker
 @dataclass(frozen=True, slots=True)
+class ChirpSignalConfig:
+    """Signal-level fidelity of chirp pulse trains (seed 003 sections 3.2, 4.1; ``sensing.signal.chirp_sensor``).
+
+    Images: the receiver samples at ``sample_rate_factor`` x B_w, interpolates the delay axis ``delay_oversample``
+    and the Doppler axis ``doppler_oversample`` times (``sensing.signal.chirp_chain``), over bistatic ranges from the
+    baseline to 2 ``SensingConfig.max_range_m``. Paths: static (target-free) paths whose integrated SNR at one
+    element of the weakest waveform is below ``static_snr_floor`` are dropped, target paths below
+    ``target_snr_floor``; at most ``max_bounces`` reflections (seed 003: 3). Background: the mean magnitude of
+    ``background_scans`` (J) clutter-only images per pair, beam and waveform, taken at the start of the episode.
+    Clutter motion: every static scatterer path has a random phase per scan (seed 003 eq. 2) and a diffuse part of
+    ``clutter_diffuse_fraction`` of its power (wind in the foliage) with a Gaussian Doppler spectrum of standard
+    deviation ``clutter_doppler_spread_hz`` within the dwell. Detection: per-cell threshold for
+    ``SensingConfig.false_alarm_probability``, at most ``max_peaks`` peaks per beam image.
+    """
+
+    background_scans: int = 10
+    sample_rate_factor: float = 2.0
+    delay_oversample: int = 2
+    doppler_oversample: int = 4
+    static_snr_floor: float = 1e-3
+    target_snr_floor: float = 0.1
+    max_bounces: int = 3
+    clutter_diffuse_fraction: float = 0.12
+    clutter_doppler_spread_hz: float = 4.0
+    max_peaks: int = 10
+
+    def __post_init__(self) -> None:
+        _int_at_least("ChirpSignalConfig", "background_scans", self.background_scans, 2)
+        _in_range("ChirpSignalConfig", "sample_rate_factor", self.sample_rate_factor, 1.0, 8.0)
+        _int_at_least("ChirpSignalConfig", "delay_oversample", self.delay_oversample, 1)
+        _int_at_least("ChirpSignalConfig", "doppler_oversample", self.doppler_oversample, 1)
+        _non_negative("ChirpSignalConfig", "static_snr_floor", self.static_snr_floor)
+        _non_negative("ChirpSignalConfig", "target_snr_floor", self.target_snr_floor)
+        if (
+            not isinstance(self.max_bounces, int)
+            or isinstance(self.max_bounces, bool)
+            or not 0 <= self.max_bounces <= 3
+        ):
+            _fail("ChirpSignalConfig", "max_bounces", self.max_bounces, "an integer in [0, 3]")
+        _in_range("ChirpSignalConfig", "clutter_diffuse_fraction", self.clutter_diffuse_fraction, 0.0, 1.0)
+        _non_negative("ChirpSignalConfig", "clutter_doppler_spread_hz", self.clutter_doppler_spread_hz)
+        _int_at_least("ChirpSignalConfig", "max_peaks", self.max_peaks, 1)
+
+
+@dataclass(frozen=True, slots=True)
 class SignalConfig:
     """Signal-level fidelity (seed 000 sections IV-V; ``uwb_env.sensing.signal``, ``detection``, ``localization``).
 
@@ -556,7 +601,8 @@ class SignalConfig:
     density of fused positions is ``false_position_density_per_m2``. ``output = "ranges"`` skips the network chain
     and hands the tracker each pair's bistatic ranges (variance sigma_r^2, ``false_ranges_per_scan`` false ones per
     scan and pair, spread over the range window): for sparse networks where few receivers see a target at once. The
-    defaults are measured on indoor-rsn (``scripts/calibrate_parametric.py``).
+    defaults are measured on indoor-rsn (``scripts/calibrate_parametric.py``). ``chirp`` holds the knobs of the
+    chirp pulse-train signal path (:class:`ChirpSignalConfig`).
     """
 
     sample_rate_hz: float = 16.4e9
@@ -601,6 +647,7 @@ class SignalConfig:
     output: Literal["positions", "ranges"] = "positions"
     false_ranges_per_scan: float = 3.0
     false_position_density_per_m2: float = 0.004
+    chirp: ChirpSignalConfig = field(default_factory=ChirpSignalConfig)
 
     def __post_init__(self) -> None:
         for name in (
@@ -665,6 +712,13 @@ class SensingConfig:
     noise-limited detector, impulse-radio scenarios use the value calibrated on the signal path
     (``scripts/calibrate_parametric.py``). ``signal`` holds the knobs of the signal-level fidelity
     (:class:`SignalConfig`).
+
+    ``array_beams``: how an array receiver combines its L elements (``uwb_env.sensing.beams``; both fidelities
+    use it): ``dft`` forms L orthogonal beams by an element-space DFT and detects on each (a target at direction
+    theta gets the gain max_m |AF_m(theta)|^2 / L of one element: L at a beam's centre, 0.44 L midway between two
+    beams of a 3-element half-wavelength array); ``boresight`` is seed 003 eq. 6's plain element sum (one beam at
+    boresight, nulls at +-41.8 deg for L = 3, d = lambda / 2); ``steered`` assumes a beam steered at every target
+    (gain L everywhere: the parametric idealisation; no signal path).
     """
 
     fidelity: Literal["parametric", "signal"] = "parametric"
@@ -675,11 +729,13 @@ class SensingConfig:
     measure_doa: bool = False
     clutter_residue_ratio: float = 0.0
     clutter_residue_looks: float = 0.0
+    array_beams: Literal["dft", "boresight", "steered"] = "dft"
     clutter: ClutterConfig = field(default_factory=ClutterConfig)
     signal: SignalConfig = field(default_factory=SignalConfig)
 
     def __post_init__(self) -> None:
         _choice("SensingConfig", "fidelity", self.fidelity, ("parametric", "signal"))
+        _choice("SensingConfig", "array_beams", self.array_beams, ("dft", "boresight", "steered"))
         _positive("SensingConfig", "scan_period_s", self.scan_period_s)
         _in_range("SensingConfig", "false_alarm_probability", self.false_alarm_probability, 0.0, 0.1, closed="(]")
         _positive("SensingConfig", "max_range_m", self.max_range_m)

@@ -17,9 +17,8 @@ from uwb_env.config import ScenarioConfig, TrackerConfig
 from uwb_env.metrics import TrackAccounting
 from uwb_env.rng import RngStreams
 from uwb_env.scene.truth import Truth, sample_truth
-from uwb_env.sensing.parametric import EpisodeSensing, ParametricSensor
+from uwb_env.sensing.protocol import Sensor, make_sensor
 from uwb_env.sensing.records import Detections, ScanPlan
-from uwb_env.sensing.signal import SignalSensor
 from uwb_env.tracking.tracker import Tracker, TrackSet
 from uwb_env.typing import BoolArray, FloatArray
 
@@ -39,7 +38,7 @@ class Simulator:
 
     def __init__(self, cfg: ScenarioConfig, tracker: TrackerConfig | None = None, use_sensor_pd: bool = True) -> None:
         self.cfg = cfg
-        self.sensor = SignalSensor(cfg) if cfg.sensing.fidelity == "signal" else ParametricSensor(cfg)
+        self.sensor: Sensor = make_sensor(cfg)  # the registry of (fidelity, waveform family) (sensing.protocol)
         self.tracker_cfg = tracker or cfg.tracker
         lay = self.sensor.layout
         self.tracker = Tracker(self.tracker_cfg, lay.tx_pos, lay.rx_pos, lay.area, self._pd if use_sensor_pd else None)
@@ -71,7 +70,7 @@ class Simulator:
         """Start an episode: named streams, truth, the sensor's episode draws, an empty tracker."""
         self.rngs = RngStreams.from_seed(seed)
         self.truth: Truth = sample_truth(self.cfg, self.rngs.truth, self.sensor.layout)
-        self.episode: EpisodeSensing = self.sensor.new_episode(self.truth, self.rngs)
+        self.episode = self.sensor.new_episode(self.truth, self.rngs)
         self.tracker.reset()
         self.k = 0
 
@@ -135,7 +134,7 @@ def run_episode(sim: Simulator, seed: int, policy: Callable[[int], ScanPlan], ga
     return acc
 
 
-def round_robin(sensor: ParametricSensor) -> Callable[[int], ScanPlan]:
+def round_robin(sensor: Sensor) -> Callable[[int], ScanPlan]:
     """Seed 003's open-loop schedule: every transmitter cycles through the library, all receivers listen."""
     plans = [ScanPlan.all_listening(w, sensor.n_tx, sensor.n_rx) for w in range(len(sensor.library))]
     return lambda k: plans[k % len(plans)]

@@ -8,8 +8,8 @@ call overhead at these sizes; this kernel does the same arithmetic in one compil
 ``tests/unit/test_sensing_compiled.py`` checks it against the reference to rounding error on every scenario.
 
     mean_link   coverage (range limits, blind zone, opaque walls, array field of view, formed pair), azimuth,
-                mean SNR per waveform (radar equation with wall loss) and Pd (Swerling I / III closed forms,
-                averaged over the clutter-residue quadrature when the sensor has one)
+                mean SNR per waveform (radar equation with wall loss, the array's beam gain) and Pd (Swerling I /
+                III closed forms, averaged over the clutter-residue quadrature when the sensor has one)
 
 Swerling 0 (Marcum Q) has no compiled form here; the caller evaluates it on the returned SNR.
 """
@@ -55,6 +55,18 @@ def _leg_obstruction(nx, ny, px, py, wall_a, wall_b, wall_loss, wall_delay):  # 
 
 
 @_jit
+def _beam_gain(u, sines, kd, n_el):  # pragma: no cover - compiled
+    """max_m |AF_m|^2 / L^2 at u = sin(off-boresight angle) (``sensing.beams.beam_gain``)."""
+    best = 0.0
+    for m in range(sines.shape[0]):
+        h = 0.5 * kd * (u - sines[m])
+        s = math.sin(h)
+        g = 1.0 if abs(s) < 1e-12 else (math.sin(n_el * h) / (n_el * s)) ** 2
+        best = max(best, g)
+    return best
+
+
+@_jit
 def mean_link(
     tx_xy,
     rx_xy,
@@ -71,6 +83,9 @@ def mean_link(
     formed,
     d0,
     rho,
+    beam_sines,
+    beam_kd,
+    n_elements,
     k,
     rcs,
     gain,
@@ -84,8 +99,10 @@ def mean_link(
         tx_xy, rx_xy: ``(2,)`` node positions [m]; wall_a, wall_b ``(Wl, 2)``, wall_loss ``(Wl,)`` [dB] (inf =
         opaque), wall_delay ``(Wl,)`` [s]; boresight, fov [rad] of the receiver's array (nan boresight: no array);
         max_range [m] per leg, baseline [m], blind_excess [m]; formed: the pair is a radar pair; d0 [m], rho: path
-        loss; k ``(W,)``: radar constant per waveform, rcs: assumed RCS [m^2]; gain ``(W, J)``: the detector's SCNR gain
-        per residue node (J = 1, gain 1 without residue), weights ``(J,)``; pfa; swerling 1 or 3 (else Pd = nan).
+        loss; beam_sines ``(M,)``, beam_kd = 2 pi d / lambda, n_elements L: the receiver's beams
+        (``sensing.beams``; M = 0: gain 1); k ``(W,)``: radar constant per waveform, rcs: assumed RCS [m^2];
+        gain ``(W, J)``: the detector's SCNR gain per residue node (J = 1, gain 1 without residue), weights
+        ``(J,)``; pfa; swerling 1 or 3 (else Pd = nan).
 
     Returns:
         ``(azimuth (N,) [rad], covered (N,), snr (W, N), pd (W, N))``; snr and pd are 0 where not covered.
@@ -117,6 +134,8 @@ def mean_link(
         ok[n] = True
         product = (max(lt, 1e-6) * max(lr, 1e-6)) / d0**2
         unit = 1.0 / product**rho * 10.0 ** (-loss / 10.0)
+        if beam_sines.shape[0] > 0 and has_array:
+            unit *= _beam_gain(math.sin(cmath.phase(cmath.exp(1j * (a - boresight)))), beam_sines, beam_kd, n_elements)
         for w in range(W):
             s = k[w] * (rcs * unit)
             snr[w, n] = s

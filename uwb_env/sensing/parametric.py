@@ -57,8 +57,10 @@ from uwb_env.constants import SPEED_OF_LIGHT_MPS
 from uwb_env.rng import RngStreams
 from uwb_env.scene.layout import SceneLayout
 from uwb_env.scene.truth import Truth
+from uwb_env.sensing.beams import beam_gain, beam_sines
 from uwb_env.sensing.compiled import expected_covariance, mean_link
 from uwb_env.sensing.pd import detection_probability, threshold_from_pfa
+from uwb_env.sensing.protocol import register_sensor
 from uwb_env.sensing.records import Detections, ScanPlan
 from uwb_env.typing import BoolArray, FloatArray, IntArray
 from uwb_env.units import dbm_to_watts
@@ -119,6 +121,31 @@ def _link_budget(
     )
 
 
+def receiver_beams(
+    cfg: ScenarioConfig, layout: SceneLayout, library: WaveformLibrary
+) -> list[tuple[FloatArray | None, int, float, float]]:
+    """Per receiver: (beam sines (M,) or None, L, d [m], lambda [m]) of ``sensing.array_beams`` (``beams``).
+
+    Beams are formed at the carrier: a library of several carriers with array receivers needs ``steered``.
+    """
+    kind = cfg.sensing.array_beams
+    carriers = {w.wavelength_m for w in library.waveforms}
+    lam = library[0].wavelength_m
+    if kind != "steered" and layout.rx_has_array.any() and len(carriers) > 1:
+        raise ValueError(
+            f"sensing.array_beams = {kind!r} in {cfg.name!r}: beams are formed at one carrier, the library has "
+            f"{len(carriers)}; use 'steered' or one carrier"
+        )
+    out: list[tuple[FloatArray | None, int, float, float]] = []
+    for r in range(layout.n_rx):  # receivers: a handful
+        if not layout.rx_has_array[r]:
+            out.append((None, 1, 0.0, lam))
+            continue
+        n_el, spacing = int(layout.rx_n_elements[r]), float(layout.rx_spacing_m[r])
+        out.append((beam_sines(kind, n_el, spacing, lam), n_el, spacing, lam))
+    return out
+
+
 def _columns(m: int) -> dict[str, int]:
     return {"pair": 0, "z": 1, "az": 1 + m, "snr": 2 + m, "origin": 3 + m, "rho": 4 + m, "az_var": 5 + m, "n": 6 + m}
 
@@ -166,6 +193,7 @@ def azimuth_variance(
     return 6.0 / (snr_e * n_elements * (n_elements**2 - 1.0) * k**2)
 
 
+@register_sensor("parametric", "chirp", "impulse")
 class ParametricSensor:
     """Turns truth and a scan plan into per-pair :class:`Detections` (component tier: config + kernels)."""
 
@@ -178,6 +206,7 @@ class ParametricSensor:
         self.baseline = lay.baselines
         self.threshold = threshold_from_pfa(cfg.sensing.false_alarm_probability)
         self.swerling = np.array([t.swerling for t in cfg.targets], dtype=np.int64)
+        self._beams = receiver_beams(cfg, lay, self.library)
         self.rcs_mean = np.array([t.rcs_mean_m2 for t in cfg.targets])
         self._swerling_w = swerling_weights(self.swerling)
         # Radar constant per (waveform, tx, rx): the energy and spectrum of the waveform, the nodes' gains.
@@ -325,7 +354,7 @@ class ParametricSensor:
         loss_db, delay_s = pair_obstruction(
             tx_pos, rx_pos, pos, lay.wall_start, lay.wall_end, lay.wall_loss_db, lay.wall_delay_s
         )
-        in_view, az, _ = in_field_of_view(rx_pos, lay.rx_boresight_rad[rx], lay.rx_fov_rad[rx], pos)
+        in_view, az, off = in_field_of_view(rx_pos, lay.rx_boresight_rad[rx], lay.rx_fov_rad[rx], pos)
         covered = (
             (lt[:, None] <= sens.max_range_m)
             & (lr[None] <= sens.max_range_m)
@@ -337,7 +366,17 @@ class ParametricSensor:
         product = (np.maximum(lt, 1e-6)[:, None] * np.maximum(lr, 1e-6)[None]) / ch.reference_distance_m**2
         with np.errstate(over="ignore"):
             unit_snr = 1.0 / product**ch.path_loss_exponent * 10.0 ** (-loss_db / 10.0)
+        unit_snr = unit_snr * self._receiver_beam_gain(rx, off)[None]
         return lt, lr, loss_db, delay_s, az, covered, unit_snr
+
+    def _receiver_beam_gain(self, rx: slice, off: FloatArray) -> FloatArray:
+        """``(R, N)`` beam gain g(psi) of receivers ``rx`` at off-boresight angles ``off`` (R, N) [rad] (``beams``)."""
+        gain = np.ones(off.shape)
+        for i, r in enumerate(range(self.n_rx)[rx]):  # receivers: a handful
+            sines, n_el, spacing, lam = self._beams[r]
+            if sines is not None and n_el > 1:
+                gain[i] = beam_gain(np.nan_to_num(off[i]), sines, n_el, spacing, lam)
+        return gain
 
     def episode_geometry(self, truth: Truth) -> EpisodeGeometry:
         """All truth-dependent geometry of the episode, vectorised over scans x pairs x targets."""
@@ -890,6 +929,7 @@ class ParametricSensor:
                 bool(self.pair_mask[tx, rx]),
                 ch.reference_distance_m,
                 ch.path_loss_exponent,
+                *self._compiled_beam(rx),
             )
             if self._residue:
                 gain, weights = self.detection_gain[w, tx, rx], self._residue_weights
@@ -900,6 +940,13 @@ class ParametricSensor:
                 self._link_cache.clear()
             self._link_cache[key] = args
         return args
+
+    def _compiled_beam(self, rx: int) -> tuple[FloatArray, float, int]:
+        """``mean_link``'s beam arguments of receiver ``rx``: sines ``(M,)`` (empty: gain 1), 2 pi d / lambda, L."""
+        sines, n_el, spacing, lam = self._beams[rx]
+        if sines is None or n_el <= 1:
+            return np.zeros(0), 0.0, 1
+        return np.ascontiguousarray(sines, dtype=float), 2.0 * math.pi * spacing / lam, n_el
 
     def _mean_link_reference(
         self, tx: int, rx: int, positions: FloatArray, waveforms: IntArray, rcs_m2: float, swerling: int

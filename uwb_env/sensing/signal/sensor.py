@@ -46,6 +46,7 @@ from uwb_env.localization import locate
 from uwb_env.rng import RngStreams
 from uwb_env.scene.truth import Truth
 from uwb_env.sensing.parametric import EpisodeGeometry, ParametricSensor
+from uwb_env.sensing.protocol import register_sensor
 from uwb_env.sensing.records import Detections, ScanPlan
 from uwb_env.sensing.signal.synthesis import (
     ar1_step,
@@ -100,6 +101,7 @@ class ScanTrace:
     origin: IntArray
 
 
+@register_sensor("signal", "impulse")
 class SignalSensor:
     """Synthesises each scan and runs the detection and localization chains (component tier)."""
 
@@ -460,6 +462,10 @@ class SignalSensor:
     def expected_measurements(self, *args, **kwargs):
         """The parametric sensor model's lookahead inputs (see :meth:`ParametricSensor.expected_measurements`)."""
         return self.model.expected_measurements(*args, **kwargs)
+
+    def clutter_intensity_at(self, tx: int, rx: int, z: FloatArray, R: FloatArray) -> FloatArray:
+        """The parametric sensor model's clutter map (see :meth:`ParametricSensor.clutter_intensity_at`)."""
+        return self.model.clutter_intensity_at(tx, rx, z, R)
 
     def measurement_names(self, rx: int) -> tuple[str, ...]:
         """Components of the parametric per-pair measurements (the lookahead's model)."""
