@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from uwb_env.localization.ellipse import ellipse_intersection
 from uwb_env.tracking.initiation import (
-    ellipse_intersection,
     fuse_candidates,
     range_azimuth_candidates,
     range_only_candidates,

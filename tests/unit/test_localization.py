@@ -171,3 +171,25 @@ def test_compiled_ellipse_intersection_equals_the_numpy_reference():
         ref = ellipse_intersection(q, var, tx, rx, starts)
         got = ellipse_intersection_fast(q, var, tx, rx, starts)
         assert np.mean(np.isclose(got[2], ref[2], rtol=1e-5, atol=1e-8)) > 0.97
+
+
+def test_two_ellipse_intersections_lie_on_both_ellipses_and_include_the_target():
+    """Closed form: every returned point satisfies both range equations to 1e-9 m; the true target is one of them."""
+    from uwb_env.localization.compiled import two_ellipse_intersections
+
+    rng = np.random.default_rng(3)
+    tx = np.array([2085.0, 1470.5])
+    rx = np.array([[2088.0, 1475.0], [2078.0, 1467.0]])  # seed 003's network
+    targets = rng.uniform([1950.0, 1480.0], [2070.0, 1660.0], (200, 2))
+    q = np.linalg.norm(targets - tx, axis=1)[:, None] + np.linalg.norm(targets[:, None] - rx[None], axis=2)
+    pos, cov, ok = two_ellipse_intersections(q, np.full((200, 2), 0.36), tx, rx)
+    assert ok.all(axis=1).mean() > 0.95  # two crossings for almost every target
+    h = np.linalg.norm(pos - tx, axis=-1)[..., None] + np.linalg.norm(pos[..., None, :] - rx, axis=-1)
+    np.testing.assert_allclose(h[ok], np.repeat(q[:, None], 2, axis=1)[ok], atol=1e-9)
+    err = np.where(ok, np.linalg.norm(pos - targets[:, None], axis=-1), np.inf).min(axis=1)
+    assert err.max() < 1e-6
+    # the covariance is the information of the two ranges at the point (J^T V^-1 J)^-1
+    i, k = np.argwhere(ok)[0]
+    p = pos[i, k]
+    J = np.stack([(p - tx) / np.linalg.norm(p - tx) + (p - r) / np.linalg.norm(p - r) for r in rx])
+    np.testing.assert_allclose(np.linalg.inv(J.T @ J / 0.36), cov[i, k], rtol=1e-4)  # but the 1e-9 trace regulariser

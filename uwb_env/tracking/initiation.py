@@ -4,10 +4,12 @@ Candidates (one scan):
     * a detection with range and azimuth (array receiver): the point of the iso-range ellipse on the bearing line,
       p = rx + d u(theta), d = (r^2 - |a|^2) / (2 (r + a . u)), a = rx - tx (closed form), covariance by the
       Jacobian of (r, theta) -> p;
-    * range-only detections: least-squares intersection of the iso-range ellipses of a nu-tuple of detections from
-      different receivers (seed 000 section V-A, eqs. 16-23): Gauss-Newton on sum_k (r_k - h_k(p))^2 / var_k from
-      several starts, kept if inside the surveillance area and (for nu > 2) its normalised residual passes the
-      chi-square test; covariance (J^T V^-1 J)^-1.
+    * range-only detections: two receivers of one transmitter (seed 003's network): both intersections of the two
+      iso-range ellipses in closed form (``localization.compiled.two_ellipse_intersections``; the target and its
+      mirror, which the next scan's velocity gate tells apart); otherwise least-squares intersection of the iso-range
+      ellipses of a nu-tuple of detections from different receivers (seed 000 section V-A, eqs. 16-23): Gauss-Newton
+      on sum_k (r_k - h_k(p))^2 / var_k from several starts, kept if inside the surveillance area and (for nu > 2)
+      its normalised residual passes the chi-square test; covariance (J^T V^-1 J)^-1.
 For chirps the range is the ridge-corrected one, r - (R_rd / R_dd) rdot, whose variance R_rr - R_rd^2 / R_dd is
 the delay-Doppler ridge's (see uwb_env.sensing): the single-chirp range-rate is too coarse to use otherwise.
 
@@ -24,7 +26,7 @@ import itertools
 import numpy as np
 from scipy.stats import chi2
 
-from uwb_env.localization.compiled import ellipse_intersection_fast
+from uwb_env.localization.compiled import ellipse_intersection_fast, two_ellipse_intersections
 from uwb_env.typing import BoolArray, FloatArray
 
 
@@ -100,12 +102,28 @@ def range_only_candidates(
         )
     if not rows:
         return np.zeros((0, 2)), np.zeros((0, 2, 2))
+    if nu == 2 and all(np.array_equal(row[2][0, 0], row[2][0, 1]) for row in rows):
+        return _shared_transmitter_pairs(rows, area)
     r, v, t, x = (np.concatenate([row[i] for row in rows]) for i in range(4))
     p, cov, cost = ellipse_intersection_fast(r, v, t, x, starts)  # the compiled twin of ellipse_intersection
     ok = (p[:, 0] >= area[0]) & (p[:, 0] <= area[1]) & (p[:, 1] >= area[2]) & (p[:, 1] <= area[3])
     if nu > 2:
         ok &= cost <= chi2.ppf(residual_probability, nu - 2)
     return p[ok], cov[ok]
+
+
+def _shared_transmitter_pairs(rows: list[tuple[FloatArray, ...]], area: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Two receivers of one transmitter: both closed-form intersections of each pair of ellipses, inside the area."""
+    ps, covs = [], []
+    for r, v, t, x in rows:  # receiver pairs: a small set
+        p, cov, ok = two_ellipse_intersections(
+            np.ascontiguousarray(r), np.ascontiguousarray(v), np.ascontiguousarray(t[0, 0]), np.ascontiguousarray(x[0])
+        )
+        p, cov = p[ok], cov[ok]
+        inside = (p[:, 0] >= area[0]) & (p[:, 0] <= area[1]) & (p[:, 1] >= area[2]) & (p[:, 1] <= area[3])
+        ps.append(p[inside])
+        covs.append(cov[inside])
+    return np.concatenate(ps), np.concatenate(covs)
 
 
 def fuse_candidates(p: FloatArray, cov: FloatArray, gate_d2: float) -> tuple[FloatArray, FloatArray]:
