@@ -79,10 +79,20 @@ PRESETS: dict[str, dict[str, Any]] = {
     },
     "schedulers": {
         "env": "uwb_env/UrbanWaveform-v0",
-        "schemes": ["myopic", "lookahead-3", "round-robin", "random", "fixed-0", "fixed-1", "fixed-2", "fixed-3"],
+        "schemes": ["myopic", "lookahead-3", "round-robin", "random"] + [f"fixed-{w}" for w in range(6)],
         "baseline": "myopic",
         "reference": {},
         "title": "Waveform schedulers on urban-intersection (VS-IMM / LMIPDA tracker)",
+    },
+    "seed003-ablation": {
+        "env": "uwb_env/UrbanWaveform-v0",
+        "schemes": ["myopic", "round-robin", "myopic@open-loop", "round-robin@open-loop"],
+        "baseline": "myopic",
+        "reference": {},
+        "title": (
+            "Seed 003 ablation: the closed loop with waveform scheduling (-> round-robin) or VS-IMM (-> one NCV UKF) "
+            "removed; spatial diversity (-> one receiver) is the same campaign with --set pairs=[[0,0]]"
+        ),
     },
 }
 RECORD = ("scan", "alive", "confirmed", "true_confirmed", "false", "missed", "sq_error_sum", "ospa_m", "trace_m2",
