@@ -536,7 +536,9 @@ class ChirpSignalConfig:
     Clutter motion: every static scatterer path has a random phase per scan (seed 003 eq. 2) and a diffuse part of
     ``clutter_diffuse_fraction`` of its power (wind in the foliage) with a Gaussian Doppler spectrum of standard
     deviation ``clutter_doppler_spread_hz`` within the dwell. Detection: per-cell threshold for
-    ``SensingConfig.false_alarm_probability``, at most ``max_peaks`` peaks per beam image.
+    ``SensingConfig.false_alarm_probability``, at most ``max_peaks`` peaks per beam image; ``threshold`` ``rice``
+    models every cell as a static return plus noise, ``clutter_map`` also adapts to the fluctuation measured over the
+    J background images (``sensing.signal.chirp_sensor.clutter_map_threshold``).
     """
 
     background_scans: int = 10
@@ -549,9 +551,11 @@ class ChirpSignalConfig:
     clutter_diffuse_fraction: float = 0.12
     clutter_doppler_spread_hz: float = 4.0
     max_peaks: int = 10
+    threshold: Literal["clutter_map", "rice"] = "clutter_map"
 
     def __post_init__(self) -> None:
         _int_at_least("ChirpSignalConfig", "background_scans", self.background_scans, 2)
+        _choice("ChirpSignalConfig", "threshold", self.threshold, ("clutter_map", "rice"))
         _in_range("ChirpSignalConfig", "sample_rate_factor", self.sample_rate_factor, 1.0, 8.0)
         _int_at_least("ChirpSignalConfig", "delay_oversample", self.delay_oversample, 1)
         _int_at_least("ChirpSignalConfig", "doppler_oversample", self.doppler_oversample, 1)
@@ -719,6 +723,15 @@ class SensingConfig:
     beams of a 3-element half-wavelength array); ``boresight`` is seed 003 eq. 6's plain element sum (one beam at
     boresight, nulls at +-41.8 deg for L = 3, d = lambda / 2); ``steered`` assumes a beam steered at every target
     (gain L everywhere: the parametric idealisation; no signal path).
+
+    ``detection_gain_db``: the parametric detection test sees the SNR times this gain (Pd only, not R): the signal
+    path's detector searches the neighbouring cells and beams for the peak, which a single-cell square-law test
+    does not (calibrated on the chirp signal path by ``scripts/calibrate_chirp.py``; 0 by default).
+
+    Multipath ghosts (parametric path; measured on the chirp signal path by ``scripts/calibrate_chirp.py``): every
+    covered target yields, per pair and scan, a Poisson number of mean ``ghost_rate`` of detections on its paths
+    through a scatterer, an exponential excess of mean ``ghost_range_offset_m`` beyond its bistatic range, its
+    range-rate offset by N(0, ``ghost_range_rate_std_mps``^2); 0 (the default) draws none.
     """
 
     fidelity: Literal["parametric", "signal"] = "parametric"
@@ -730,12 +743,20 @@ class SensingConfig:
     clutter_residue_ratio: float = 0.0
     clutter_residue_looks: float = 0.0
     array_beams: Literal["dft", "boresight", "steered"] = "dft"
+    detection_gain_db: float = 0.0
+    ghost_rate: float = 0.0
+    ghost_range_offset_m: float = 20.0
+    ghost_range_rate_std_mps: float = 2.5
     clutter: ClutterConfig = field(default_factory=ClutterConfig)
     signal: SignalConfig = field(default_factory=SignalConfig)
 
     def __post_init__(self) -> None:
         _choice("SensingConfig", "fidelity", self.fidelity, ("parametric", "signal"))
         _choice("SensingConfig", "array_beams", self.array_beams, ("dft", "boresight", "steered"))
+        _in_range("SensingConfig", "detection_gain_db", self.detection_gain_db, -10.0, 10.0)
+        _in_range("SensingConfig", "ghost_rate", self.ghost_rate, 0.0, 100.0)
+        _positive("SensingConfig", "ghost_range_offset_m", self.ghost_range_offset_m)
+        _non_negative("SensingConfig", "ghost_range_rate_std_mps", self.ghost_range_rate_std_mps)
         _positive("SensingConfig", "scan_period_s", self.scan_period_s)
         _in_range("SensingConfig", "false_alarm_probability", self.false_alarm_probability, 0.0, 0.1, closed="(]")
         _positive("SensingConfig", "max_range_m", self.max_range_m)

@@ -7,7 +7,9 @@ For every transmitter-receiver pair and target in a scan:
 2. the scan's RCS is drawn per pair and target (Swerling 0 / I / III, scan-to-scan; pairs see the target from
    different aspects, so their fluctuations are independent);
 3. detection is the square-law test itself: |sqrt(SNR) + n|^2 > -ln Pfa with n ~ CN(0, 1). Averaged over the RCS
-   this has exactly the Pd of ``uwb_env.sensing.pd`` for the Swerling case (tested);
+   this has exactly the Pd of ``uwb_env.sensing.pd`` for the Swerling case (tested); the test sees the SNR times
+   ``SensingConfig.detection_gain_db`` (the signal path's peak search over neighbouring cells and beams, calibrated
+   by ``scripts/calibrate_chirp.py``; 0 dB by default);
 4. a detected target is measured as h(x) + v, v ~ N(0, R(SNR)), R the waveform's CRLB at the scan's true SNR
    (bistatic range; range-rate for chirps; azimuth from the ULA CRLB for array receivers when enabled); walls add
    the excess delay of seed 002 as a positive range bias;
@@ -23,6 +25,10 @@ For every transmitter-receiver pair and target in a scan:
    N(0, R_dd + rdot_max^2 / 3) (uniform truth plus measurement noise), or 1 / period for a chirp train whose
    range-rate is measured folded (every measured range-rate, target or not, is folded into the waveform's
    ambiguity interval lambda / T1: ``fold_range_rate``).
+
+7. multipath ghosts (``SensingConfig.ghost_rate``, calibrated on the chirp signal path): detections on a covered
+   target's paths through a scatterer, beyond its bistatic range (:meth:`ParametricSensor._draw_ghosts`); to the
+   tracker they are false alarms.
 
 A target is not detected by a pair when it is not alive, beyond ``max_range_m`` from either node, inside the blind
 zone (seed 000 section IV-G), hidden by an opaque wall, or outside the array's field of view.
@@ -224,7 +230,9 @@ class ParametricSensor:
         kappa, looks = cfg.sensing.clutter_residue_ratio, cfg.sensing.clutter_residue_looks
         self._residue = kappa > 0.0
         self._residue_nodes, self._residue_weights = residue_quadrature(looks)
-        self.detection_gain = 1.0 / (1.0 + kappa * self.direct_path_snr[..., None] * self._residue_nodes)  # (W,T,R,J)
+        # The detector's SNR gain over the single-cell square-law test (SensingConfig.detection_gain_db), for Pd only.
+        self._pd_gain = 10.0 ** (cfg.sensing.detection_gain_db / 10.0)
+        self.detection_gain = self._pd_gain / (1.0 + kappa * self.direct_path_snr[..., None] * self._residue_nodes)
         self.pairs = np.array(cfg.radar_pairs, dtype=np.int64).reshape(-1, 2)  # (P, 2) formed (tx, rx)
         self.pair_mask = np.zeros((self.n_tx, self.n_rx), dtype=bool)
         self.pair_mask[self.pairs[:, 0], self.pairs[:, 1]] = True
@@ -273,7 +281,7 @@ class ParametricSensor:
         self.range_rate_period = np.array(
             [getattr(w, "range_rate_ambiguity_mps", math.inf) for w in self.library.waveforms]
         )
-        self._unit_gain = np.ones((len(self.library), 1))  # no clutter residue: one node, gain 1
+        self._unit_gain = np.full((len(self.library), 1), self._pd_gain)  # no clutter residue: one node
         self._unit_weight = np.ones(1)
         self._link_cache: dict[tuple[int, ...], tuple] = {}  # mean_link's arguments per (tx, rx, waveforms...)
         self._notch = self._static_clutter_tables()
@@ -309,6 +317,14 @@ class ParametricSensor:
             [train_doppler_spread_hz(w.config.n_pulses, w.config.pri_s, cl.doppler_spread_hz) for w in chirps]
         )
         return cnr, step, pri, sigma_f, self._wavelengths.copy()
+
+    def clutter_to_noise(self, w: IntArray, tx: IntArray, rx: IntArray, bistatic_range: FloatArray) -> FloatArray:
+        """CNR(r) of the static scatterers at ``bistatic_range`` [m] (0 without static clutter); arguments broadcast."""
+        if self._notch is None:
+            return np.zeros(np.broadcast_shapes(np.shape(bistatic_range), np.shape(w)))
+        cnr_table, step = self._notch[0], self._notch[1]
+        g = np.clip(np.rint(np.asarray(bistatic_range) / step).astype(np.int64), 0, cnr_table.shape[-1] - 1)
+        return cnr_table[w, tx, rx, g]
 
     def notch_gain(
         self, w: IntArray, tx: IntArray, rx: IntArray, bistatic_range: FloatArray, range_rate: FloatArray
@@ -607,6 +623,8 @@ class ParametricSensor:
             scnr = snr_all * gain[..., None]
         else:
             scnr = snr_all
+        if self._pd_gain != 1.0:
+            scnr = scnr * self._pd_gain
         if self._notch is not None:  # static clutter at the blind speeds of each waveform's PRI
             gain = self.notch_gain(
                 np.arange(W)[:, None, None, None, None],
@@ -634,6 +652,17 @@ class ParametricSensor:
                 rows[:, col["snr"]] = snr_all[w].reshape(-1)
                 self._measure(rows, e_t, az_t, n_az_t, t_t, r_t, w, m)
                 target_rows[w] = rows.reshape(template.shape)
+        c_scan = scan[idx]
+        if sens.ghost_rate > 0.0:  # multipath ghosts of covered targets, merged into the false alarms by (scan, pair)
+            g_scan, g_base, g_e, g_az, g_t, g_r = self._draw_ghosts(geom, rngs.clutter, col, m)
+            order = np.argsort(np.concatenate([c_scan, g_scan]) * self.pairs.shape[0] + np.concatenate(
+                [c_base[:, col["pair"]], g_base[:, col["pair"]]]), kind="stable")  # fmt: skip
+            c_scan = np.concatenate([c_scan, g_scan])[order]
+            c_base = np.concatenate([c_base, g_base])[order]
+            c_e = np.concatenate([c_e, g_e])[order]
+            c_az = np.concatenate([c_az, g_az])[order]
+            c_t, c_r = np.concatenate([c_t, g_t])[order], np.concatenate([c_r, g_r])[order]
+            n_c = c_base.shape[0]
         clutter_rows = np.empty((W, n_c, col["n"]))
         c_scale = 1.0 / np.sqrt(c_base[:, col["snr"]])  # false alarms' SNR is the same for every waveform
         for w in range(W):  # the waveform library: a small fixed set
@@ -646,8 +675,37 @@ class ParametricSensor:
             clutter_rows=clutter_rows,
             clutter_tx=c_t,
             clutter_rx=c_r,
-            clutter_start=np.searchsorted(scan[idx], np.arange(S + 1)),
+            clutter_start=np.searchsorted(c_scan, np.arange(S + 1)),
         )
+
+    def _draw_ghosts(
+        self, geom: EpisodeGeometry, rng: np.random.Generator, col: dict[str, int], m: int
+    ) -> tuple[IntArray, FloatArray, FloatArray, FloatArray, IntArray, IntArray]:
+        """Multipath ghosts of every covered target, formed pair and scan (``SensingConfig.ghost_rate``).
+
+        A Poisson number of mean ``ghost_rate`` per covered (scan, pair, target); each lies an exponential excess of
+        mean ``ghost_range_offset_m`` beyond the target's bistatic range, with the target's range-rate plus
+        N(0, ``ghost_range_rate_std_mps``^2), at the apparent SNR of a threshold crossing (V_T + Exp(1) - 1, like a
+        false alarm) and the target's azimuth; origin -1. Returns the scans ``(G,)``, the noise-free rows
+        ``(G, n)``, their measurement noise ``(G, m + 1)``, azimuths, transmitters and receivers.
+        """
+        sens = self.cfg.sensing
+        covered = geom.covered & self.pair_mask[None, :, :, None]
+        s_i, t_i, r_i, k_i = np.nonzero(covered)
+        rep = np.repeat(np.arange(s_i.size), rng.poisson(sens.ghost_rate, s_i.size))
+        s_i, t_i, r_i, k_i = s_i[rep], t_i[rep], r_i[rep], k_i[rep]
+        n = rep.size
+        u = rng.random((2, n))
+        rdot_offset = sens.ghost_range_rate_std_mps * rng.standard_normal(n)
+        e = rng.standard_normal((n, m + 1))
+        base = np.zeros((n, col["n"]))
+        base[:, col["pair"]] = self._pair_of_tr[t_i, r_i]
+        base[:, 1] = geom.bistatic_range[s_i, t_i, r_i, k_i] - sens.ghost_range_offset_m * np.log1p(-u[0])
+        if m == 2:
+            base[:, 2] = geom.range_rate[s_i, t_i, r_i, k_i] + rdot_offset
+        base[:, col["snr"]] = self.threshold - np.log1p(-u[1]) - 1.0
+        base[:, col["origin"]] = -1.0
+        return s_i, base, e, geom.azimuth[s_i, r_i, k_i], t_i, r_i
 
     def _measure(
         self,
@@ -962,7 +1020,7 @@ class ParametricSensor:
             scnr = snr[..., None] * self.detection_gain[waveforms, tx, rx][:, None, :]  # (W, N, J)
             pd = detection_probability(scnr.reshape(-1), pfa, swerling).reshape(scnr.shape) @ self._residue_weights
         else:
-            pd = detection_probability(snr, pfa, swerling)
+            pd = detection_probability(snr * self._pd_gain, pfa, swerling)
         pd = np.where(ok, pd, 0.0)
         return az[0], ok, snr, pd
 
@@ -1008,7 +1066,8 @@ class ParametricSensor:
             rdot = np.einsum("nd,nd->n", dt / np.maximum(lt, 1e-9)[:, None] + dr / np.maximum(lr, 1e-9)[:, None], vel)
             snr = snr * self.notch_gain(waveforms[:, None], tx, rx, (lt + lr)[None], rdot[None])
             pfa = self.cfg.sensing.false_alarm_probability
-            pd = np.where(ok, detection_probability(snr.reshape(-1), pfa, swerling).reshape(snr.shape), 0.0)
+            scnr = (snr * self._pd_gain).reshape(-1)
+            pd = np.where(ok, detection_probability(scnr, pfa, swerling).reshape(snr.shape), 0.0)
         if not self._all_unit_chol:
             return pd, self._expected_covariance_reference(rx, az, ok, snr, waveforms)
         lay = self.layout

@@ -28,13 +28,18 @@ Choices (the seed leaves them open; each one is shared with the parametric model
   residue around zero Doppler. Together they are the clutter notch that the parametric model writes as
   SCNR = SNR / (1 + eta CNR G(f)) (``uwb_env.channel.doppler_notch``), whose eta and Doppler spread are fitted on
   this path (``scripts/calibrate_chirp.py``).
-* Background (seed 003 section 4.1): J = ``background_scans`` clutter-only scans per waveform at the start of the
-  episode give, per pair and beam, the mean magnitude A_bar and the per-cell threshold for the per-cell false-alarm
-  probability ``SensingConfig.false_alarm_probability`` (noise power known: B eta N0 L per cell).
+* Background and threshold (seed 003 section 4.1): J = ``background_scans`` clutter-only scans per waveform at the
+  start of the episode give, per pair and beam, the mean magnitude A_bar (subtracted from every image) and the
+  per-cell threshold for the per-cell false-alarm probability ``SensingConfig.false_alarm_probability`` (noise power
+  known: B eta N0 L per cell). ``ChirpSignalConfig.threshold``: ``clutter_map`` (default) also adapts each clutter
+  cell's threshold to the fluctuation of |A| measured over the J scans (:func:`clutter_map_threshold`): the foliage
+  residue then raises the threshold at zero Doppler and masks a target there (the clutter notch) instead of making
+  false peaks; ``rice`` models every cell as a constant static return plus noise (``delay_doppler``), which keeps
+  the targets at blind speeds visible and lets the residue through as false peaks.
 * Gate: peaks closer to the direct path than ``blind_zone_excess_m`` or beyond 2 ``max_range_m`` are dropped (the
   parametric coverage); images span the bistatic ranges from the baseline to 2 ``max_range_m``.
 * Clutter map: a detection's ``clutter_intensity`` is the false-peak density of its pair and waveform, uniform in
-  (range, folded range-rate): the expected false peaks per scan ``_FALSE_PEAKS_PER_CELL`` x Pfa x searched cells x
+  (range, folded range-rate): the expected false peaks per scan ``false_peak_factor(Pfa)`` x Pfa x searched cells x
   beams (measured on urban-intersection, ``scripts/calibrate_chirp.py``) over the gate's range x the period.
 * Covariance: the fitted curvature gives each detection's range and range-rate variances; their correlation is
   the waveform's (``ChirpWaveform.covariance``: 1e-5 for the seed's trains). The fitted cross-curvature of a 3 x 3
@@ -45,7 +50,8 @@ Choices (the seed leaves them open; each one is shared with the parametric model
   (:attr:`ChirpEpisode.last_trace`).
 
 Randomness and common random numbers: each scan k draws from children of the episode's streams spawned at
-``new_episode`` (scan k's generators are the same whatever was sensed before): ``rcs`` the Swerling factor per
+``new_episode`` (scan k's generators start from the same state whatever was sensed before, and if k is sensed
+again): ``rcs`` the Swerling factor per
 target and formed pair; ``clutter`` the static paths' phases and diffuse parts; ``signal`` the thermal noise of
 every formed pair (the largest waveform's shape) and the target paths' phases (their number depends on the truth and
 the RCS only). Every formed pair draws whatever the plan; only the active pairs are imaged and detected.
@@ -59,6 +65,7 @@ from dataclasses import dataclass, replace
 import numba as nb
 import numpy as np
 import numpy.typing as npt
+import scipy.stats
 
 from uwb_env.channel.multipath import (
     PathKind,
@@ -75,6 +82,7 @@ from uwb_env.config import ChirpWaveformConfig, ScenarioConfig
 from uwb_env.constants import SPEED_OF_LIGHT_MPS
 from uwb_env.detection.delay_doppler import (
     BackgroundModel,
+    DelayDopplerAxes,
     DelayDopplerDetections,
     background_model,
     detect_delay_doppler,
@@ -96,9 +104,10 @@ ComplexArray = npt.NDArray[np.complex128]
 _FLUCTUATION_SNR_FLOOR = 0.01
 """Static clutter paths whose image SNR (weakest waveform, beam centre) is below this keep one phase per episode:
 their scan-to-scan residue would be 20 dB below the noise."""
-_FALSE_PEAKS_PER_CELL = 0.45
-"""False peaks per scan per (Pfa x searched cell x beam), noise and clutter residue, merged over the beams
-(urban-intersection, ``scripts/calibrate_chirp.py``)."""
+_FALSE_PEAK_FACTOR = ((1e-4, 0.537), (3e-4, 0.456), (1e-3, 0.280))
+"""(per-cell Pfa, false peaks per scan / (Pfa x searched cells x beams)): noise and static-clutter residue, merged
+over the beams, measured on urban-intersection (``scripts/calibrate_chirp.py``, section C); it falls with Pfa as the
+guard cells of nearby noise peaks suppress each other. Interpolated in log Pfa, held constant outside."""
 _KL_ENERGY = 1.0 - 1e-4
 """Slow-time Karhunen-Loeve modes of the diffuse clutter kept per waveform: this fraction of its energy."""
 _C = SPEED_OF_LIGHT_MPS
@@ -112,13 +121,15 @@ class PairTrace:
     Attributes:
         pair: formed-pair index. waveform: library index. detections: merged over the beams, inside the gate,
         sorted by range, ``origin`` the fine truth code (target index, -1 static path, -2 ghost, -3 noise).
-        beam: ``(n,)`` the beam each detection was taken from.
+        beam: ``(n,)`` the beam each detection was taken from. source: ``(n,)`` the target whose path (direct or
+        multipath) the detection lies on, within one resolution cell (the nearest), -1 for none.
     """
 
     pair: int
     waveform: int
     detections: DelayDopplerDetections
     beam: IntArray
+    source: IntArray
 
 
 @dataclass(slots=True)
@@ -129,7 +140,8 @@ class ChirpEpisode:
         truth: the episode's truth. backgrounds: ``[w][pair][beam]`` the section-4.1 background models.
         thresholds: ``[w]`` ``(P, M, n_delay, n_doppler)`` per-cell thresholds on A_k.
         fixed: ``{grid key: (P, M, N)}`` spectrum (unit energy, no matched-filter weight) of the static paths whose
-        phase is fixed for the episode. scan_rngs: per scan index, the (rcs, clutter, signal) generators.
+        phase is fixed for the episode. scan_seeds: per scan index, the seeds of its (rcs, clutter, signal)
+        generators (children of the episode's streams; a scan sensed twice draws the same numbers).
         expected_false_peaks: ``(W, P)`` false peaks per scan. last_trace: the last sensed scan's traces.
     """
 
@@ -137,7 +149,7 @@ class ChirpEpisode:
     backgrounds: list[list[list[BackgroundModel]]]
     thresholds: list[FloatArray]
     fixed: dict[tuple[int, float], ComplexArray]
-    scan_rngs: list[tuple[np.random.Generator, np.random.Generator, np.random.Generator]]
+    scan_seeds: list[tuple[np.random.SeedSequence, ...]]
     expected_false_peaks: FloatArray
     last_trace: tuple[PairTrace, ...] | None = None
 
@@ -257,7 +269,7 @@ class ChirpSignalSensor:
         self._kl = [np.pad(u, ((0, 0), (0, self._q - u.shape[1]))) for u in self._kl]
         self._fluct_start = np.concatenate([[0], np.cumsum([len(s.fluct_index) for s in self._statics])])
         self._diffuse_start = np.concatenate([[0], np.cumsum([len(s.diffuse_index) for s in self._statics])])
-        self._gate_rows = [self._searched_cells(g) for g in self.grids]  # (P,) searched cells per waveform
+        self.searched_cells = np.stack([self._searched_cells(g) for g in self.grids])  # (W, P) per beam
         unit = [w.unit_covariance for w in self.library.waveforms]
         self._correlation = np.array([u[0, 1] / math.sqrt(u[0, 0] * u[1, 1]) for u in unit])  # (W,)
 
@@ -364,14 +376,20 @@ class ChirpSignalSensor:
             noise = cc.image_noise_power(grid, self.n0, self.noise_gain)  # (P,)
             bgs = [[background_model(mag[:, q, m], noise_power=float(noise[q])) for m in range(M)] for q in range(P)]
             backgrounds.append(bgs)
-            thresholds.append(np.stack([[detection_threshold(b, self.pfa) for b in row] for row in bgs]))
-        false_peaks = _FALSE_PEAKS_PER_CELL * self.pfa * np.stack(self._gate_rows) * M  # (W, P)
+            threshold = _THRESHOLDS[self.sc.threshold]
+            thresholds.append(
+                np.stack([[threshold(mag[:, q, m], bgs[q][m], self.pfa) for m in range(M)] for q in range(P)])
+            )
+        false_peaks = false_peak_factor(self.pfa) * self.pfa * self.searched_cells * M  # (W, P)
         return ChirpEpisode(
             truth=truth,
             backgrounds=backgrounds,
             thresholds=thresholds,
             fixed=fixed,
-            scan_rngs=list(zip(rcs_g, clutter_g[1:], signal_g[1:], strict=True)),
+            scan_seeds=[
+                tuple(g.bit_generator.seed_seq for g in gens)
+                for gens in zip(rcs_g, clutter_g[1:], signal_g[1:], strict=True)
+            ],
             expected_false_peaks=false_peaks,
         )
 
@@ -517,7 +535,7 @@ class ChirpSignalSensor:
                 np.concatenate([static.kind, p.kind]) == PathKind.TARGET,
                 axes,
             )
-            out.append(PairTrace(q, w, det, beam))
+            out.append(PairTrace(q, w, det, beam, _source_target(det, p, axes)))
         return tuple(out)
 
     # ------------------------------------------------------------------------------------------------ a scan
@@ -525,7 +543,7 @@ class ChirpSignalSensor:
         """Scan ``k`` with ``plan``: every formed pair's draws, the active pairs' images and detections."""
         plan.validate(self.n_tx, self.n_rx, len(self.library))
         active = np.flatnonzero(plan.active_rx[self.pairs[:, 1]])
-        r_rcs, r_cl, r_sig = episode.scan_rngs[k]
+        r_rcs, r_cl, r_sig = (np.random.default_rng(seq) for seq in episode.scan_seeds[k])
         draws = self._draw(r_cl, r_sig, r_rcs)
         moving = self._target_paths(k, episode.truth, draws.rcs)
         traces: list[PairTrace] = []
@@ -556,7 +574,7 @@ class ChirpSignalSensor:
             waveform=w,
             time_s=time_s,
             z=np.stack([det.range_m, fold_range_rate(det.range_rate_mps, period)], axis=1),
-            R=self._covariance(det.R, w),
+            R=self.covariance(det.R, w),
             snr=det.snr,
             origin=np.where(det.origin >= 0, det.origin, -1),
             measurement_names=self.model.measurement_names(r),
@@ -565,7 +583,7 @@ class ChirpSignalSensor:
             range_rate_period_mps=period,
         )
 
-    def _covariance(self, R: FloatArray, w: int) -> FloatArray:
+    def covariance(self, R: FloatArray, w: int) -> FloatArray:
         """``(n, 2, 2)`` the fitted variances with the waveform's range-range-rate correlation (module docstring)."""
         out = R.copy()
         c = self._correlation[w] * np.sqrt(R[:, 0, 0] * R[:, 1, 1])
@@ -648,6 +666,55 @@ def _sub_grid(grid: cc.ChirpGrid, pairs: IntArray) -> cc.ChirpGrid:
     if pairs.size == grid.n_pairs and np.array_equal(pairs, np.arange(grid.n_pairs)):
         return grid
     return replace(grid, window_start_s=grid.window_start_s[pairs])
+
+
+def false_peak_factor(pfa: float) -> float:
+    """False peaks per scan / (Pfa x searched cells x beams) at per-cell ``pfa`` (:data:`_FALSE_PEAK_FACTOR`)."""
+    x, y = zip(*_FALSE_PEAK_FACTOR, strict=True)
+    return float(np.interp(math.log(pfa), np.log(x), y))
+
+
+def rice_threshold(images: FloatArray, background: BackgroundModel, pfa: float) -> FloatArray:
+    """The detector's per-cell threshold on A_k for static returns of constant amplitude (``detection_threshold``)."""
+    del images
+    return detection_threshold(background, pfa)
+
+
+def clutter_map_threshold(images: FloatArray, background: BackgroundModel, pfa: float) -> FloatArray:
+    """Per-cell threshold on A_k that also adapts to the fluctuation measured over the J background images.
+
+    A cell consistent with noise (the gate of ``delay_doppler.detection_threshold``) keeps the exact noise
+    threshold. Elsewhere T = max(T_Rice, t_{J-1}^{-1}(1 - Pfa) sqrt(s^2 (1 + 1 / J))), s^2 the sample variance of
+    |A_j| over the J images: the clutter-map CFAR of a fluctuating return (foliage), A_k = |A| - A_bar taken as
+    Student-t with J - 1 degrees of freedom. A target in such a cell needs the residue's margin: the clutter notch.
+
+    Args:
+        images: ``(J, n_delay, n_doppler)`` background magnitudes; background: their :class:`BackgroundModel`;
+        pfa: per-cell false-alarm probability.
+    """
+    j = images.shape[0]
+    rice = detection_threshold(background, pfa)
+    sigma = math.sqrt(background.noise_power)
+    gate = sigma * (0.5 * math.sqrt(math.pi) + 2.0 * math.sqrt((1.0 - math.pi / 4.0) / j))
+    spread = float(scipy.stats.t.isf(pfa, j - 1)) * np.sqrt(images.var(axis=0, ddof=1) * (1.0 + 1.0 / j))
+    return np.where(background.mean_magnitude <= gate, rice, np.maximum(rice, spread))
+
+
+_THRESHOLDS = {"rice": rice_threshold, "clutter_map": clutter_map_threshold}
+"""``ChirpSignalConfig.threshold``: the per-cell threshold of the section-4.1 detector."""
+
+
+def _source_target(det: DelayDopplerDetections, paths: Paths, axes: DelayDopplerAxes) -> IntArray:
+    """``(n,)`` target of the nearest target path (direct or multipath) within one resolution cell, else -1."""
+    if len(paths) == 0 or len(det) == 0:
+        return np.full(len(det), -1, dtype=np.int64)
+    span = axes.wavelength_m * axes.doppler_span_hz
+    dr = (det.range_m[:, None] - paths.length_m[None, :]) / (_C * axes.delay_resolution_s)
+    dv = det.range_rate_mps[:, None] - paths.range_rate_mps[None, :]
+    dv = (np.mod(dv + 0.5 * span, span) - 0.5 * span) / (axes.wavelength_m * axes.doppler_resolution_hz)
+    dist = np.where((np.abs(dr) <= 1.0) & (np.abs(dv) <= 1.0), dr * dr + dv * dv, np.inf)
+    best = np.argmin(dist, axis=1)
+    return np.where(np.isfinite(dist[np.arange(len(det)), best]), paths.target[best], -1)
 
 
 def _select(det: DelayDopplerDetections, idx: BoolArray | IntArray) -> DelayDopplerDetections:
