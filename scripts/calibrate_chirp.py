@@ -466,6 +466,25 @@ def report(out: Path, res: dict, command: str, elapsed: float) -> None:
     L += ["Signal path: `uwb_env.sensing.signal.chirp_sensor.ChirpSignalSensor`; parametric: `ParametricSensor` of "
           "the same scenario. Numbers are Monte Carlo estimates; binomial standard errors are given where they "
           "matter.", ""]  # fmt: skip
+    fp, g, nt, pdr = res["false_peaks"], res["ghosts"], res["notch"], res["pd"]
+    L += ["## Summary: values for the scenario (`uwb_env/scenarios/urban_intersection.py`)", ""]
+    L += ["| setting | now | calibrated | from |", "|---|---|---|---|"]
+    L += [f"| `sensing.clutter.residue_fraction` | {nt['scenario_residue_fraction']} | {nt['residue_fraction']:.3g} "
+          f"(95 %: {nt['residue_fraction_95'][0]:.3g}-{nt['residue_fraction_95'][1]:.3g}) | F |",
+          f"| `sensing.clutter.doppler_spread_hz` | {nt['scenario_doppler_spread_hz']} | {nt['doppler_spread_hz']:.3g} "
+          f"(95 %: {nt['doppler_spread_hz_95'][0]:.3g}-{nt['doppler_spread_hz_95'][1]:.3g}) | F |",
+          f"| `sensing.detection_gain_db` | 0 | {pdr['detection_gain_db']:+.2f} | B |",
+          f"| `sensing.ghost_rate` | 0 | {g['rate_per_covered_target']:.4f} | D |",
+          f"| `sensing.ghost_range_offset_m` | (20) | {g['range_offset_mean_m']:.1f} | D |",
+          f"| `sensing.ghost_range_rate_std_mps` | (2.5) | {g['range_rate_offset_rms_mps']:.2f} | D |",
+          f"| false alarms: `sensing.false_alarm_probability` (keeps the seed's 2.5e-4 / m^2) | 1e-4 | "
+          f"{fp['pfa_matching_parametric']:.1e} | C |",
+          f"| or `sensing.clutter.density_per_m2` (keeps Pfa 1e-4) | 2.5e-4 | "
+          f"{2.5e-4 * fp['total'][0] / fp['parametric_expected']:.1e} | C |",
+          "", "The fits are made at the scenario's current settings (Pfa 1e-4); after a change of Pfa, run the script "
+          "again (the detector gain and the false peaks per cell depend weakly on it). A doppler_spread_hz of 0 "
+          "means the notch is as wide as the train's own Doppler main lobe (1.6 Hz std at 10 ms, 2.2 Hz at 7 ms).",
+          ""]  # fmt: skip
     b = res["beams"]
     L += ["## A. Receive beams (DFT, 3 elements)", ""]
     L += [f"Fitted SNR / parametric SNR of 25 dB Swerling 0 echoes: median {b['median_ratio']:.3f} over {b['n']} "
@@ -473,7 +492,6 @@ def report(out: Path, res: dict, command: str, elapsed: float) -> None:
           "pulse keeps eta = 0.995 of its energy).", ""]  # fmt: skip
     L += ["| off boresight [deg] | echoes | median fitted / parametric SNR |", "|---|---|---|"]
     L += [f"| {lo:.0f} .. {hi:.0f} | {n} | {r:.3f} |" for lo, hi, n, r in b["bins"]]
-    pdr = res["pd"]
     gdb = pdr["detection_gain_db"]
     L += ["", "## B. Pd over SNR (Swerling I, away from blind speeds)", ""]
     L += [f"Parametric Pd as configured (detector gain 0 dB) and with the fitted `sensing.detection_gain_db` = "
@@ -495,7 +513,6 @@ def report(out: Path, res: dict, command: str, elapsed: float) -> None:
     for name, r in pdr["curves"].items():
         L.append(f"| {name} | " + " | ".join(f"{a:.2f}/{p:.2f}/{q:.2f}" for a, p, q in zip(
             r["signal"], r["parametric"], r["parametric_fitted"], strict=True)) + " |")  # fmt: skip
-    fp = res["false_peaks"]
     L += ["", "## C. False peaks per pair and scan (clutter-only scans)", ""]
     L += [
         "| per-cell Pfa | noise peaks | static-clutter peaks | total | peaks / (Pfa x cells) |",
@@ -514,13 +531,13 @@ def report(out: Path, res: dict, command: str, elapsed: float) -> None:
           f"{fp['pfa_matching_parametric']:.2e} the signal path makes {fp['total_at_match']:.2f} false peaks per pair "
           f"and scan ({fp['total_at_match'] / fp['parametric_expected']:.2f} x the parametric "
           f"{fp['parametric_expected']:.2f}).", ""]  # fmt: skip
-    g = res["ghosts"]
     L += ["## D. Multipath ghosts (round-robin episodes, both receivers)", ""]
     L += [f"{g['episodes']} episodes, {g['pair_scans']} pair-scans, {g['covered_target_pair_scans']} covered "
           f"target-pair-scans, {g['target_detections']} target detections, {g['ghosts']} ghost detections: "
           f"{g['rate_per_pair_scan']:.4f} per pair-scan, {g['rate_per_covered_target']:.4f} per covered target, pair "
           "and scan.", ""]  # fmt: skip
-    L += [f"Offsets from the ghost's target: range {g['range_offset_quantiles_m']} m (10/50/90 %), mean of the "
+    L += [f"Offsets from the ghost's target: range {np.round(g['range_offset_quantiles_m'], 1).tolist()} m "
+          "(10/50/90 %), mean of the "
           f"positive ones {g['range_offset_mean_m']:.1f} m ({g['negative_offsets']} negative: ghosts on a path "
           f"within one cell of a shorter one); range-rate mean {g['range_rate_offset_mean_mps']:+.2f} m/s, rms "
           f"{g['range_rate_offset_rms_mps']:.2f} m/s (folded); median SNR {g['snr_median']:.1f}.", ""]  # fmt: skip
@@ -542,7 +559,6 @@ def report(out: Path, res: dict, command: str, elapsed: float) -> None:
                      f"{r['rate_std_over_bound']:.2f} | {r['range_bias_m']:+.3f} | "
                      f"{r['reported_range_std_over_spread']:.2f} | "
                      f"{r['reported_rate_std_over_spread']:.2f} |")  # fmt: skip
-    nt = res["notch"]
     L += ["", "## F. Clutter notch at the blind speeds", ""]
     L += [f"Echoes at the vehicles' positions on the path (covered scans of one episode, both receivers), folded "
           f"Doppler uniform in +-8 Hz, mean SNR {nt['snr_db']:.0f} dB Swerling I, {nt['n_per_waveform']} per waveform. "

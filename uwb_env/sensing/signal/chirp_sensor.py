@@ -49,6 +49,14 @@ Choices (the seed leaves them open; each one is shared with the parametric model
   ``delay_doppler.truth_origin`` (-1 static path, -2 multipath ghost, -3 noise) is in the scan's trace
   (:attr:`ChirpEpisode.last_trace`).
 
+Measured on urban-intersection (``scripts/calibrate_chirp.py`` -> ``results/calibration-urban/report.md``): the
+fitted SNR of a strong echo is 0.93-1.0 x the parametric SNR over the whole field of view (the beam gain holds); Pd
+over SNR is the parametric Swerling I Pd with a detector gain of +0.5 dB within 0.05 for every waveform; 5.0 false
+peaks per pair and scan at Pfa 1e-4 (4.4 noise, 0.7 static clutter); 0.007 multipath ghosts per covered target,
+pair and scan, 7-33 m beyond the target; range and range-rate spread 1.0-1.25 x the pulse-train CRLB at 20-30 dB,
+the reported R within 0.86-1.04 of the spread; the clutter notch fits eta = 0.06 with no extra Doppler spread.
+``benchmarks/urban_signal_sensor.py``: ~300 scans/s for both pairs (3.3 ms a scan), 0.2 s of episode set-up.
+
 Randomness and common random numbers: each scan k draws from children of the episode's streams spawned at
 ``new_episode`` (scan k's generators start from the same state whatever was sensed before, and if k is sensed
 again): ``rcs`` the Swerling factor per
@@ -172,7 +180,7 @@ class _ScanDraws:
     clutter_phase: ComplexArray  # (n_fluct_total,) e^{j phi}
     diffuse: ComplexArray  # (Q, n_diffuse_total) CN(0, 1)
     noise: ComplexArray  # (P, M, B_max, N_max) CN(0, 1)
-    signal: np.random.Generator  # the target paths' phases are drawn from it next
+    signal: np.random.Generator  # the generator the target paths' phases are drawn from next
 
 
 @register_sensor("signal", "chirp")
@@ -468,13 +476,16 @@ class ChirpSignalSensor:
         fixed: dict[tuple[int, float], ComplexArray],
         draws: _ScanDraws,
         moving: list[Paths],
+        phi: FloatArray,
         active: IntArray,
     ) -> ComplexArray:
-        """``(A, M, B, N)`` spectra of the active pairs: static paths, noise and the moving paths ``moving``."""
+        """``(A, M, B, N)`` spectra of the active pairs: static paths, noise and the moving paths ``moving``.
+
+        ``phi``: the random phases of every formed pair's moving paths, concatenated (drawn once per scan).
+        """
         grid = self.grids[w]
         z = self._clutter_spectra(w, fixed, draws, active)
         counts = [len(p) for p in moving]
-        phi = draws.signal.uniform(-math.pi, math.pi, sum(counts))  # every formed pair's paths
         starts = np.concatenate([[0], np.cumsum(counts)])
         sel = [q for q in active.tolist() if counts[q]]
         if not sel:
@@ -546,10 +557,11 @@ class ChirpSignalSensor:
         r_rcs, r_cl, r_sig = (np.random.default_rng(seq) for seq in episode.scan_seeds[k])
         draws = self._draw(r_cl, r_sig, r_rcs)
         moving = self._target_paths(k, episode.truth, draws.rcs)
+        phi = r_sig.uniform(-math.pi, math.pi, sum(len(p) for p in moving))  # every formed pair's target paths
         traces: list[PairTrace] = []
         for w in sorted(set(plan.waveform[self.pairs[active, 0]].tolist())):  # one waveform per transmitter
             sel = active[plan.waveform[self.pairs[active, 0]] == w]
-            spectra = self._spectra(w, episode.fixed, draws, moving, sel)
+            spectra = self._spectra(w, episode.fixed, draws, moving, phi, sel)
             traces += self._detect(episode, w, spectra, sel, moving)
         traces.sort(key=lambda t: t.pair)
         return tuple(traces)
@@ -623,7 +635,8 @@ class ChirpSignalSensor:
         )
         draws = self._draw(rng, rng, None)
         active = np.array([pair])
-        spectra = self._spectra(waveform, episode.fixed, draws, moving, active)
+        phi = rng.uniform(-math.pi, math.pi, k)
+        spectra = self._spectra(waveform, episode.fixed, draws, moving, phi, active)
         return self._detect(episode, waveform, spectra, active, moving)[0]
 
     def _beam_gain(self, q: int, doa: FloatArray) -> tuple[ComplexArray, FloatArray]:
