@@ -131,8 +131,8 @@ def test_image_noise_power_is_the_known_b_eta_n0_l(sensor, episode):
 def test_pd_at_a_controlled_snr_matches_swerling_one(sensor, episode):
     """400 Swerling I echoes at 12 dB mean SNR, random direction / range / range-rate off the blind speeds.
 
-    Formula: Pfa^(1 / (1 + SNR)) = 0.579; the signal path measures 0.60 (scripts/calibrate_chirp.py: +0.01..0.03 over
-    the SNR range, partly noise peaks within a resolution cell of the echo); 4 binomial sigma = 0.1.
+    Formula: Pfa^(1 / (1 + SNR)) = 0.579; the signal path measures 0.62 (scripts/calibrate_chirp.py: a +0.5 dB
+    detector gain over the SNR range, and noise peaks within a resolution cell of the echo); 4 binomial sigma = 0.1.
     """
     rng = np.random.default_rng(11)
     n, snr = 400, 10.0**1.2
@@ -150,7 +150,7 @@ def test_pd_at_a_controlled_snr_matches_swerling_one(sensor, episode):
 
 
 def test_false_peaks_match_the_sensors_expectation(sensor, episode):
-    """Clutter-only scans: false peaks per pair and scan vs expected_false_peaks (measured 5.8 at Pfa 1e-4)."""
+    """Clutter-only scans: false peaks per pair and scan vs expected_false_peaks (5.0; measured here 4.6)."""
     rng = np.random.default_rng(2)
     counts = [len(sensor.controlled_scan(episode, 0, q, [], [], [], [], rng=rng).detections) for q in (0, 1) * 40]
     expected = episode.expected_false_peaks[0].mean()
@@ -213,15 +213,16 @@ def test_parametric_ghosts_poisson_rate_and_offsets():
 def test_signal_fidelity_confirms_tracks_on_both_vehicles_like_the_parametric_path():
     """Seeded urban episode, round-robin waveforms: the share of each vehicle's alive scans held by a confirmed track.
 
-    Measured (seed 0): signal 0.75 / 0.58, parametric 0.59 / 0.66 (both lose the vehicles behind the buildings and
-    out of the arrays' view); asserted >= 0.5 / 0.4 and within 0.25 of the parametric path.
+    Measured (seed 0): signal 0.73 / 0.63, parametric 0.59 / 0.66 (seeds 0-5: signal 0.60-0.73 / 0.53-0.63,
+    parametric 0.50-0.63 / 0.55-0.66; both lose the vehicles behind the buildings and out of the arrays' view);
+    asserted >= 0.6 / 0.5 and within 0.2 of the parametric path.
     """
     cov = {}
     for fidelity in ("signal", "parametric"):
         sim = Simulator(scenarios.get("urban-intersection", **{"sensing.fidelity": fidelity}))
         cov[fidelity] = run_episode(sim, 0, round_robin(sim.sensor)).coverage()
-    assert cov["signal"][0] >= 0.5 and cov["signal"][1] >= 0.4
-    np.testing.assert_allclose(cov["signal"], cov["parametric"], atol=0.25)
+    assert cov["signal"][0] >= 0.6 and cov["signal"][1] >= 0.5
+    np.testing.assert_allclose(cov["signal"], cov["parametric"], atol=0.2)
 
 
 def test_urban_env_at_signal_fidelity_steps_a_whole_episode():
