@@ -164,7 +164,7 @@ class ChirpEpisode:
 
 @dataclass(frozen=True, slots=True)
 class _PairStatics:
-    """Static paths of one pair: all of them (truth origin), the fluctuating ones' beam-space phasors (synthesis)."""
+    """Static paths of one pair (their beam-space phasors per grid: ``ChirpSignalSensor._statics_v``, ``_fixed_v``)."""
 
     paths: Paths  # every kept static path (evaluation)
     fixed_index: IntArray  # indices into ``paths`` of the fixed-phase paths
@@ -180,7 +180,7 @@ class _ScanDraws:
     clutter_phase: ComplexArray  # (n_fluct_total,) e^{j phi}
     diffuse: ComplexArray  # (Q, n_diffuse_total) CN(0, 1)
     noise: ComplexArray  # (P, M, B_max, N_max) CN(0, 1)
-    signal: np.random.Generator  # the generator the target paths' phases are drawn from next
+    signal: np.random.Generator  # the scan's signal generator (after the noise: the target paths' phases)
 
 
 @register_sensor("signal", "chirp")
