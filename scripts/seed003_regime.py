@@ -28,7 +28,10 @@ def main() -> None:
     cfg = scenarios.get(args.scenario)
     sensor = ParametricSensor(cfg)
     truth = sample_truth(cfg, RngStreams.from_seed(args.seed).truth, sensor.layout)
-    geom = sensor.episode_geometry(truth)
+    geom = sensor.episode_geometry(truth)  # scan SNR with the receive beams' gain g(psi) <= L
+    # one element's SNR: the array's full coherent gain L ("steered") divided out
+    element = ParametricSensor(scenarios.get(args.scenario, **{"sensing.array_beams": "steered"}))
+    geom_el = element.episode_geometry(truth)
     pfa = cfg.sensing.false_alarm_probability
     power = cfg.transmitters[0].power_dbm
     print(f"{args.scenario}: Tx power {power} dBm, Pfa {pfa:g}, covered links {geom.covered.sum()}")
@@ -37,7 +40,8 @@ def main() -> None:
         n_el = np.array([r.array.n_elements if r.array else 1 for r in cfg.receivers])
         snr = sensor.radar_constant[w][:, :, None][None] * geom.unit_snr  # (S, T, R, K) scan SNR at mean RCS
         scan = snr[geom.covered]
-        per_pulse = (snr / (wf.config.n_pulses * n_el[None, None, :, None]))[geom.covered]
+        snr_el = element.radar_constant[w][:, :, None][None] * geom_el.unit_snr
+        per_pulse = (snr_el / (wf.config.n_pulses * n_el[None, None, :, None]))[geom.covered]
         pd = detection_probability(scan, pfa, 1)
         p = np.percentile(10 * np.log10(per_pulse), [10, 50, 90])
         q = np.percentile(pd, [10, 50, 90])
