@@ -3,7 +3,7 @@ r"""Monte Carlo campaign: one environment x schemes x N seeded runs, paired by c
 Run (also installed as ``uwb-env-evaluate``):
 
     uwb-env-evaluate --preset seed003 --runs 100 --out results/seed003
-    uwb-env-evaluate --env uwb_env/UrbanWaveform-v0 --schemes myopic round-robin random fixed-0 --baseline myopic
+    uwb-env-evaluate --env uwb_env/UrbanWaveform-v1 --schemes myopic round-robin random fixed-0 --baseline myopic
 
 A **scheme** is ``SCHEDULER[@TRACKER]``: the scheduler is one of ``agents.scheduler_names()`` (``myopic``,
 ``round-robin``, ``random``, ``fixed-K``, ``lookahead-D``), the tracker ``scenario`` (default: the scenario's
@@ -71,21 +71,21 @@ METRICS = {
 }
 PRESETS: dict[str, dict[str, Any]] = {
     "seed003": {
-        "env": "uwb_env/UrbanWaveform-v0",
+        "env": "uwb_env/UrbanWaveform-v1",
         "schemes": ["myopic", "round-robin", "round-robin@open-loop"],
         "baseline": "round-robin@open-loop",
         "reference": {"confirmed": "+15 %", "true_confirmed": "+15 %", "rmse_m": "-60 %"},
         "title": "Seed 003: closed loop (myopic + VS-IMM) vs open loop (round-robin + one NCV UKF)",
     },
     "schedulers": {
-        "env": "uwb_env/UrbanWaveform-v0",
+        "env": "uwb_env/UrbanWaveform-v1",
         "schemes": ["myopic", "lookahead-3", "round-robin", "random"] + [f"fixed-{w}" for w in range(6)],
         "baseline": "myopic",
         "reference": {},
         "title": "Waveform schedulers on urban-intersection (VS-IMM / LMIPDA tracker)",
     },
     "seed003-ablation": {
-        "env": "uwb_env/UrbanWaveform-v0",
+        "env": "uwb_env/UrbanWaveform-v1",
         "schemes": ["myopic", "round-robin", "myopic@open-loop", "round-robin@open-loop"],
         "baseline": "myopic",
         "reference": {},
@@ -453,7 +453,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     ap.add_argument("--no-progress", action="store_true")
     args = ap.parse_args(argv)
     preset = PRESETS[args.preset] if args.preset else {}
-    env = args.env or preset.get("env") or "uwb_env/UrbanWaveform-v0"
+    env = args.env or preset.get("env") or "uwb_env/UrbanWaveform-v1"
     schemes = args.schemes or preset.get("schemes") or ["myopic", "round-robin"]
     campaign = Campaign(
         env=env,

@@ -1,8 +1,8 @@
 """Train an RL scheduler (stable-baselines3 / sb3-contrib) on a registered uwb_env environment.
 
 Usage:
-    uwb-env-train --env uwb_env/UrbanWaveform-v0 --algo maskable-ppo --timesteps 200000 --out runs/urban-mppo
-    uwb-env-train --env uwb_env/UrbanWaveform-v0 --algo maskable-ppo --timesteps 400000 --out runs/urban-mppo --resume
+    uwb-env-train --env uwb_env/UrbanWaveform-v1 --algo maskable-ppo --timesteps 200000 --out runs/urban-mppo
+    uwb-env-train --env uwb_env/UrbanWaveform-v1 --algo maskable-ppo --timesteps 400000 --out runs/urban-mppo --resume
     uwb-env-train --env uwb_env/IndoorJoint-v0 --algo dqn --timesteps 50000 --hyper learning_rate=3e-4 \\
         --env-kwarg fidelity=parametric --out runs/joint-dqn
 
@@ -33,7 +33,7 @@ def _pairs(items: list[str], flag: str) -> dict:
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--env", default="uwb_env/UrbanWaveform-v0")
+    ap.add_argument("--env", default="uwb_env/UrbanWaveform-v1")
     ap.add_argument("--algo", default="maskable-ppo", choices=sorted(ALGORITHMS))
     ap.add_argument("--timesteps", type=int, default=100_000)
     ap.add_argument("--out", type=Path, required=True)

@@ -31,14 +31,14 @@ def test_gymnasium_and_sb3_env_checkers_pass(env_id):
 
 
 def test_action_spaces_enumerate_the_plans():
-    assert gym.make("uwb_env/UrbanWaveform-v0").action_space.n == 6  # 4 seed chirps + 2 at a 7 ms PRI
+    assert gym.make("uwb_env/UrbanWaveform-v1").action_space.n == 6  # 4 seed chirps + 2 at a 7 ms PRI
     assert gym.make("uwb_env/IndoorSensorSubset-v0").action_space.n == 20  # C(6, 3)
     assert gym.make("uwb_env/IndoorJoint-v0").action_space.n == 60  # 3 waveforms x C(6, 3)
     assert gym.make("uwb_env/IndoorSensorSubset-v0", subset_size=2).action_space.n == 15
 
 
 def _rollout(seed, actions, **kw):
-    env = gym.make("uwb_env/UrbanWaveform-v0", **kw)
+    env = gym.make("uwb_env/UrbanWaveform-v1", **kw)
     obs, _ = env.reset(seed=seed)
     out = [obs]
     rewards = []
@@ -61,9 +61,9 @@ def test_same_seed_and_actions_give_identical_trajectories():
 
 def test_lookahead_costs_are_pure():
     """Calling the lookahead changes neither the env nor its random streams: the trajectory is the same."""
-    env = gym.make("uwb_env/UrbanWaveform-v0").unwrapped
+    env = gym.make("uwb_env/UrbanWaveform-v1").unwrapped
     env.reset(seed=3)
-    ref = gym.make("uwb_env/UrbanWaveform-v0").unwrapped
+    ref = gym.make("uwb_env/UrbanWaveform-v1").unwrapped
     ref.reset(seed=3)
     for k in range(50):
         c1 = env.lookahead_costs()
@@ -78,7 +78,7 @@ def test_lookahead_costs_are_pure():
 def test_lookahead_matches_the_realised_cost_without_clutter_and_with_steady_snr():
     """No clutter, non-fluctuating targets: the expected trace after a scan is the realised one, up to the
     linearisation of the second receiver's update and Pd < 1 (median within 5 %, 90 % of scans within 15 %)."""
-    env = gym.make("uwb_env/UrbanWaveform-v0", **NO_CLUTTER_SWERLING_0).unwrapped
+    env = gym.make("uwb_env/UrbanWaveform-v1", **NO_CLUTTER_SWERLING_0).unwrapped
     env.reset(seed=1)
     rel = []
     for k in range(140):
@@ -93,7 +93,7 @@ def test_lookahead_matches_the_realised_cost_without_clutter_and_with_steady_snr
 
 def test_missed_targets_are_penalised():
     """Before any track is confirmed, every alive target costs the penalty: losing tracks cannot pay."""
-    env = gym.make("uwb_env/UrbanWaveform-v0", missed_target_penalty_m2=50.0).unwrapped
+    env = gym.make("uwb_env/UrbanWaveform-v1", missed_target_penalty_m2=50.0).unwrapped
     env.reset(seed=0)
     _, r, _, _, info = env.step(0)
     assert info["confirmed_tracks"] == 0
@@ -104,7 +104,7 @@ def test_missed_targets_are_penalised():
 
 @pytest.mark.parametrize("bad", [6, -1, 1.5, "1", np.array([0, 1])])
 def test_invalid_actions_raise_naming_the_value(bad):
-    env = gym.make("uwb_env/UrbanWaveform-v0").unwrapped
+    env = gym.make("uwb_env/UrbanWaveform-v1").unwrapped
     env.reset(seed=0)
     with pytest.raises(ValueError, match="action="):
         env.step(bad)
@@ -112,17 +112,17 @@ def test_invalid_actions_raise_naming_the_value(bad):
 
 def test_bad_env_arguments_raise():
     with pytest.raises(ValueError, match="action_kind='x'"):
-        gym.make("uwb_env/UrbanWaveform-v0", action_kind="x")
+        gym.make("uwb_env/UrbanWaveform-v1", action_kind="x")
     with pytest.raises(ValueError, match="measure_doa = True"):  # the chirp signal path measures no azimuth
-        gym.make("uwb_env/UrbanWaveform-v0", fidelity="signal", **{"sensing.measure_doa": True})
+        gym.make("uwb_env/UrbanWaveform-v1", fidelity="signal", **{"sensing.measure_doa": True})
     with pytest.raises(ValueError, match="fidelity='exact'"):
-        gym.make("uwb_env/UrbanWaveform-v0", fidelity="exact")
+        gym.make("uwb_env/UrbanWaveform-v1", fidelity="exact")
     with pytest.raises(ValueError, match="subset_size=7"):
         gym.make("uwb_env/IndoorSensorSubset-v0", subset_size=7)
 
 
 def test_episode_length_and_dict_observation():
-    env = gym.make("uwb_env/UrbanWaveform-v0", observation="dict", include_lookahead=True)
+    env = gym.make("uwb_env/UrbanWaveform-v1", observation="dict", include_lookahead=True)
     obs, _ = env.reset(seed=2)
     assert set(obs) == {"tracks", "previous_action", "lookahead"}
     n, done = 0, False
@@ -134,7 +134,7 @@ def test_episode_length_and_dict_observation():
 
 
 def test_render_rgb_array():
-    env = gym.make("uwb_env/UrbanWaveform-v0", render_mode="rgb_array")
+    env = gym.make("uwb_env/UrbanWaveform-v1", render_mode="rgb_array")
     env.reset(seed=0)
     for _ in range(30):
         env.step(1)
@@ -144,7 +144,7 @@ def test_render_rgb_array():
 
 
 def test_schedulers_act_as_specified():
-    env = gym.make("uwb_env/UrbanWaveform-v0").unwrapped
+    env = gym.make("uwb_env/UrbanWaveform-v1").unwrapped
     obs, _ = env.reset(seed=4)
     rr, fx, rnd, my = RoundRobin(), Fixed(2), Random(), Myopic()
     for s in (rr, fx, rnd, my):

@@ -3,7 +3,7 @@
 from uwb_env.envs.scheduling import ACTION_KINDS, UWBSchedulingEnv, enumerate_plans
 
 ENV_IDS = {
-    "uwb_env/UrbanWaveform-v0": {"scenario": "urban-intersection", "action_kind": "waveform"},
+    "uwb_env/UrbanWaveform-v1": {"scenario": "urban-intersection", "action_kind": "waveform"},
     "uwb_env/IndoorSensorSubset-v0": {"scenario": "indoor-rsn", "action_kind": "subset", "subset_size": 3},
     "uwb_env/IndoorJoint-v0": {"scenario": "indoor-rsn", "action_kind": "joint", "subset_size": 3},
     "uwb_env/IndoorSubsetWarmup-v0": {
@@ -16,7 +16,14 @@ ENV_IDS = {
 """Registered ids and their default keyword arguments (``gymnasium.make(id, **kwargs)`` overrides them).
 
 ``IndoorSubsetWarmup-v0`` is the scenario where one-step lookahead is short-sighted (receiver warm-up,
-``uwb_env.envs.scheduling``)."""
+``uwb_env.envs.scheduling``).
+
+Version history:
+    * ``UrbanWaveform-v1``: seed 003's regime (range + range-rate per receiver, SNR 0.2 per pulse and element), the
+      pulse train's measurement model (precise, folded range-rate), six chirps (``Discrete(6)``: the seed's four and
+      two at a 7 ms PRI), DFT receive beams, the vegetation's zero-Doppler residue and multipath ghosts calibrated on
+      the chirp signal path, and a signal fidelity (``fidelity="signal"``).
+    * ``UrbanWaveform-v0``: ``Discrete(4)``, azimuth measured, single-pulse chirp bound, 22-50 dB SNR."""
 
 
 def register_envs() -> None:
