@@ -87,9 +87,10 @@ class UWBSchedulingEnv(gym.Env):
     Args:
         scenario: a registered scenario name or a ``ScenarioConfig``; overrides: dotted config overrides.
         action_kind, subset_size, fixed_waveform: the plans (``enumerate_plans``).
-        fidelity: ``"parametric"`` or ``"signal"`` (synthesised scans through seed 000's chains; impulse-radio
-            scenarios with one transmitter); None keeps the scenario's ``sensing.fidelity``. With ``"signal"`` the
-            lookahead still uses the parametric sensor model (per-pair Pd and range covariance).
+        fidelity: ``"parametric"`` or ``"signal"`` (synthesised signals through the seeds' chains: seed 000's for
+            impulse radios, seed 003's delay-Doppler chain for chirp trains; ``uwb_env.sensing.protocol``); None keeps
+            the scenario's ``sensing.fidelity``. With ``"signal"`` the lookahead still uses the parametric sensor
+            model (per-pair Pd, R and clutter map).
         n_slots: track slots in the observation; observation: ``"box"`` or ``"dict"``;
         include_lookahead: append the lookahead cost of every action to the observation.
         missed_target_penalty_m2, cover_gate_m, energy_cost_per_j: reward terms (module docstring).
