@@ -146,7 +146,11 @@ def test_pd_at_a_controlled_snr_matches_swerling_one(sensor, episode):
             [snr * rng.standard_exponential()], rng=rng,
         )  # fmt: skip
         hits += bool((tr.detections.origin == 0).any())
-    assert hits / n == pytest.approx(float(detection_probability(np.array([snr]), 1e-4, 1)[0]), abs=0.1)
+    sens = sensor.cfg.sensing  # the parametric model as calibrated: the scenario's Pfa and detector gain
+    expected = detection_probability(
+        np.array([snr * 10 ** (sens.detection_gain_db / 10)]), sens.false_alarm_probability, 1
+    )
+    assert hits / n == pytest.approx(float(expected[0]), abs=0.1)
 
 
 def test_false_peaks_match_the_sensors_expectation(sensor, episode):
@@ -213,15 +217,17 @@ def test_parametric_ghosts_poisson_rate_and_offsets():
 def test_signal_fidelity_confirms_tracks_on_both_vehicles_like_the_parametric_path():
     """Seeded urban episode, round-robin waveforms: the share of each vehicle's alive scans held by a confirmed track.
 
-    Measured (seed 0): signal 0.73 / 0.63, parametric 0.59 / 0.66 (seeds 0-5: signal 0.60-0.73 / 0.53-0.63,
-    parametric 0.50-0.63 / 0.55-0.66; both lose the vehicles behind the buildings and out of the arrays' view);
-    asserted >= 0.6 / 0.5 and within 0.2 of the parametric path.
+    Measured at the scenario's Pfa 7e-4 (the seed's 2.5e-4 false detections per m^2; seeds 0-3): signal 0.53-0.60 /
+    0.48-0.58, parametric 0.60-0.76 / 0.57-0.67 (the signal path holds the vehicles ~0.1 less often; both lose them
+    behind the buildings and out of the arrays' view). Asserted on seed 0 (signal 0.525 / 0.574, parametric
+    0.691 / 0.663): >= 0.5 / 0.5 and within 0.2 of the parametric path. (At Pfa 1e-4, a quarter of the false peaks,
+    the signal path held them 0.60-0.73 / 0.53-0.63.)
     """
     cov = {}
     for fidelity in ("signal", "parametric"):
         sim = Simulator(scenarios.get("urban-intersection", **{"sensing.fidelity": fidelity}))
         cov[fidelity] = run_episode(sim, 0, round_robin(sim.sensor)).coverage()
-    assert cov["signal"][0] >= 0.6 and cov["signal"][1] >= 0.5
+    assert cov["signal"][0] >= 0.5 and cov["signal"][1] >= 0.5
     np.testing.assert_allclose(cov["signal"], cov["parametric"], atol=0.2)
 
 

@@ -62,7 +62,7 @@ def test_dotted_and_nested_overrides_are_applied_and_revalidated():
     assert cfg.receivers[0].noise_figure_db == 5.0
     cfg2 = scenarios.get("urban-intersection", sensing={"max_range_m": 250.0, "clutter": {"density_per_m2": 0.0}})
     assert cfg2.sensing.max_range_m == 250.0 and cfg2.sensing.clutter.density_per_m2 == 0.0
-    assert cfg2.sensing.false_alarm_probability == 1e-4  # untouched fields keep their value
+    assert cfg2.sensing.false_alarm_probability == 7e-4  # untouched fields keep their (the scenario's) value
     with pytest.raises(ValueError, match=r"SensingConfig.max_range_m = -1.0: must be > 0"):
         scenarios.get("urban-intersection", **{"sensing.max_range_m": -1.0})
 

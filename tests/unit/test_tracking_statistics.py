@@ -18,6 +18,7 @@ from uwb_env.sensing import Detections
 from uwb_env.sim import Simulator, round_robin, run_episode
 from uwb_env.tracking import Tracker, UnscentedWeights, ekf_moments, joseph_update, kf_predict, ukf_moments
 from uwb_env.tracking.measurement import angular_mask, measure, wrap_residual
+from uwb_env.typing import FloatArray
 
 
 @pytest.mark.parametrize(("names", "filt"), [(("x", "y"), "ekf"), (("bistatic_range", "azimuth"), "ukf")])
@@ -63,10 +64,8 @@ def test_nees_and_nis_of_ncv_tracked_with_ncv_are_consistent(names, filt):
         assert abs(values.mean() - dof) < half
 
 
-def _turn_rmse(tracker_cfg: TrackerConfig, seeds) -> float:
-    # a beam steered at the target (full array gain): the sensor model this comparison was set up on; with the DFT
-    # beams (the default since the chirp signal path) seeds 0-3 lose the target in the turn more often (IMM 2.64 m vs
-    # NCV 2.48 m there; seeds 4-11: 1.90 vs 3.38 m)
+def _turn_errors(tracker_cfg: TrackerConfig, seeds) -> FloatArray:
+    # a beam steered at the target (full array gain), no false alarms: the comparison is about the motion models
     cfg = scenarios.get(
         "urban-intersection", **{"sensing.clutter.density_per_m2": 0.0, "sensing.array_beams": "steered"}
     )
@@ -77,17 +76,24 @@ def _turn_rmse(tracker_cfg: TrackerConfig, seeds) -> float:
         acc = run_episode(sim, seed, pol)
         # target 0 (first leg 0-5 s, decelerates 5-10 s) turns at 10-20 s: scans 40..80 (scan k at index k - 1)
         err.append(np.array(acc.errors)[39:80, 0])
-    e = np.concatenate(err)
-    return float(np.sqrt(np.nanmean(e**2)))
+    return np.concatenate(err)  # nan where no confirmed track covers the target
 
 
-def test_vs_imm_beats_a_single_ncv_filter_during_the_turn():
+def test_vs_imm_holds_the_turning_target_a_single_ncv_filter_loses():
+    """Seed 003's reason for VS-IMM: through the turn, with range and range-rate only (the seed's measurement set).
+
+    Measured (seeds 0-3): VS-IMM holds the turning vehicle in 0.91 of the turn's scans, one NCV UKF in 0.51 (its
+    track falls behind the turn and is deleted). The RMSE over the scans each keeps is no fair judge of the two (the
+    NCV filter's error counts only where it has not lost the target yet): on the scans both hold it is mixed
+    (seeds 0-3: 4.4 vs 1.8 m; seeds 4-11: 1.9 vs 2.8 m, with held shares 0.97 vs 0.73).
+    """
     cfg = scenarios.get("urban-intersection")
-    ncv = open_loop_tracker(cfg.tracker)
     seeds = range(4)
-    imm_rmse = _turn_rmse(cfg.tracker, seeds)
-    ncv_rmse = _turn_rmse(ncv, seeds)
-    assert imm_rmse < ncv_rmse
+    imm = _turn_errors(cfg.tracker, seeds)
+    ncv = _turn_errors(open_loop_tracker(cfg.tracker), seeds)
+    held_imm, held_ncv = np.mean(~np.isnan(imm)), np.mean(~np.isnan(ncv))
+    assert held_imm >= 0.85
+    assert held_imm - held_ncv >= 0.25
 
 
 @pytest.mark.slow

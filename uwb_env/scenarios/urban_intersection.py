@@ -90,9 +90,9 @@ SEED_REGIME_POWER_DBM = 4.5
 # the detector's gain over the square-law model (the strongest of the neighbouring cells and beams), multipath ghosts
 # (rate per covered target, pair and scan; mean range offset beyond the target; range-rate spread) and the
 # zero-Doppler residue of the vegetation (its fraction of the scatterers' power; Doppler spread).
-CALIBRATED = {  # at Pfa 7e-4; the ghost rate is what makes the parametric path's ghosts per target 0.0194 as measured
+CALIBRATED = {  # at Pfa 7e-4
     "detection_gain_db": 1.05,
-    "ghost_rate": 0.030,
+    "ghost_rate": 0.0194,
     "ghost_range_offset_m": 22.1,
     "ghost_range_rate_std_mps": 2.63,
     "residue_fraction": 0.059,

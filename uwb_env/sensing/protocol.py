@@ -73,8 +73,13 @@ class Sensor(Protocol):
         """The lookahead's ``(Pd (W, N), R (W, N, m, m))`` of pair (tx, rx) at ``positions`` for ``waveforms``."""
         ...
 
-    def clutter_intensity_at(self, tx: int, rx: int, z: FloatArray, R: FloatArray) -> FloatArray:
-        """Clutter map ``(W, N)`` of pair (tx, rx) at measurements ``z`` (N, m) with covariances ``R`` (W, N, m, m)."""
+    def clutter_intensity_at(
+        self, tx: int, rx: int, z: FloatArray, R: FloatArray, waveforms: IntArray | None = None
+    ) -> FloatArray:
+        """Clutter map ``(W, N)`` of pair (tx, rx) at measurements ``z`` (N, m), covariances ``R`` (W, N, m, m).
+
+        ``waveforms`` (W,): the library's waveforms of R (default: the whole library in order).
+        """
         ...
 
     def measurement_names(self, rx: int) -> tuple[str, ...]:

@@ -665,9 +665,11 @@ class ChirpSignalSensor:
         """The parametric sensor model's lookahead inputs (:meth:`ParametricSensor.expected_measurements`)."""
         return self.model.expected_measurements(tx, rx, positions, waveforms, rcs_m2, swerling, velocities)
 
-    def clutter_intensity_at(self, tx: int, rx: int, z: FloatArray, R: FloatArray) -> FloatArray:
+    def clutter_intensity_at(
+        self, tx: int, rx: int, z: FloatArray, R: FloatArray, waveforms: IntArray | None = None
+    ) -> FloatArray:
         """The parametric sensor model's clutter map (:meth:`ParametricSensor.clutter_intensity_at`)."""
-        return self.model.clutter_intensity_at(tx, rx, z, R)
+        return self.model.clutter_intensity_at(tx, rx, z, R, waveforms)
 
     def measurement_names(self, rx: int) -> tuple[str, ...]:
         """Components of the per-pair measurements: bistatic range and range-rate."""

@@ -463,9 +463,11 @@ class SignalSensor:
         """The parametric sensor model's lookahead inputs (see :meth:`ParametricSensor.expected_measurements`)."""
         return self.model.expected_measurements(*args, **kwargs)
 
-    def clutter_intensity_at(self, tx: int, rx: int, z: FloatArray, R: FloatArray) -> FloatArray:
+    def clutter_intensity_at(
+        self, tx: int, rx: int, z: FloatArray, R: FloatArray, waveforms: IntArray | None = None
+    ) -> FloatArray:
         """The parametric sensor model's clutter map (see :meth:`ParametricSensor.clutter_intensity_at`)."""
-        return self.model.clutter_intensity_at(tx, rx, z, R)
+        return self.model.clutter_intensity_at(tx, rx, z, R, waveforms)
 
     def measurement_names(self, rx: int) -> tuple[str, ...]:
         """Components of the parametric per-pair measurements (the lookahead's model)."""
