@@ -105,3 +105,25 @@ def test_urban_sensor_blind_speeds_differ_by_pri_and_the_lookahead_sees_them():
     assert pd_notch[0, 0] <= pd_plain[0, 0] + 1e-12
     assert np.isclose(pd_notch[0, 0], pd_plain[0, 0], rtol=1e-9, atol=0) == (gain[0] > 1 - 1e-9)
     np.testing.assert_allclose(R_notch[0, 0], R_plain[0, 0] / gain[0], rtol=1e-9)  # R at the SCNR
+
+
+@pytest.mark.parametrize("residue", [0.0, 3e-7])
+def test_pd_with_velocities_equals_the_link_pd_where_the_notch_gain_is_one(residue):
+    """Far from every blind speed (folded Doppler PRF / 2) the notch gain is 1: Pd with and without the velocities
+    agree, whatever detector gain and clutter-residue quadrature the link uses (review finding: the residue was
+    dropped)."""
+    cfg = scenarios.get("urban-intersection", **{"sensing.clutter_residue_ratio": residue})
+    s = ParametricSensor(cfg)
+    lay = s.layout
+    pos = np.array([[2060.0, 1500.0], [2000.0, 1505.0], [2090.0, 1560.0]])
+    w = np.array([2, 5])
+    lam = s.library[2].wavelength_m
+    for rx in range(2):
+        d_t, d_r = pos - lay.tx_pos[0], pos - lay.rx_pos[rx]
+        u = d_t / np.linalg.norm(d_t, axis=1)[:, None] + d_r / np.linalg.norm(d_r, axis=1)[:, None]
+        for i, wi in enumerate(w):
+            pri = s.library[int(wi)].config.pri_s
+            vel = (0.5 * lam / pri) * u / np.einsum("nd,nd->n", u, u)[:, None]  # range-rate P / 2: far from the notch
+            plain, _ = s.expected_measurements(0, rx, pos, w[i : i + 1], 10.0, 1)
+            with_v, _ = s.expected_measurements(0, rx, pos, w[i : i + 1], 10.0, 1, velocities=vel)
+            np.testing.assert_allclose(with_v, plain, rtol=1e-6, atol=1e-12)

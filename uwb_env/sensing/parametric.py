@@ -1066,8 +1066,11 @@ class ParametricSensor:
             rdot = np.einsum("nd,nd->n", dt / np.maximum(lt, 1e-9)[:, None] + dr / np.maximum(lr, 1e-9)[:, None], vel)
             snr = snr * self.notch_gain(waveforms[:, None], tx, rx, (lt + lr)[None], rdot[None])
             pfa = self.cfg.sensing.false_alarm_probability
-            scnr = (snr * self._pd_gain).reshape(-1)
-            pd = np.where(ok, detection_probability(scnr, pfa, swerling).reshape(snr.shape), 0.0)
+            # the detector's gain as in _mean_link: detection_gain_db and, with a clutter residue, its quadrature
+            gain, weights = self._link_args(tx, rx, waveforms)[2:]  # (W, J), (J,)
+            scnr = snr[..., None] * gain[:, None, :]  # (W, N, J)
+            pd_j = detection_probability(scnr.reshape(-1), pfa, swerling).reshape(scnr.shape)
+            pd = np.where(ok, pd_j @ weights, 0.0)
         if not self._all_unit_chol:
             return pd, self._expected_covariance_reference(rx, az, ok, snr, waveforms)
         lay = self.layout
