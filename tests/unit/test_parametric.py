@@ -145,10 +145,13 @@ def test_clutter_intensity_is_the_map_times_the_range_rate_density():
     r = d.z[:, 0] - d.R[:, 0, 1] / d.R[:, 1, 1] * d.z[:, 1]
     b = np.clip(np.searchsorted(edges, r, side="right") - 1, 0, dens.size - 1)
     inside = (r >= 0) & (r < edges[-1])
-    # the train's range-rate is folded into one ambiguity interval, lambda / T1, where a false alarm is uniform
+    # the train's range-rate is folded into one ambiguity interval, lambda / T1: a false alarm's density there is
+    # its aliases inside +-30 m/s (uniform truth) over 60 m/s, counted by brute force
     period = sensor.library[d.waveform].range_rate_ambiguity_mps
     assert np.all(np.abs(d.z[:, 1]) <= period / 2)
-    expected = np.where(inside, dens[b], 0.0) / period
+    k = np.arange(-20, 21)
+    aliases = (np.abs(d.z[:, 1:2] + k[None] * period) <= 30.0).sum(axis=1)
+    expected = np.where(inside, dens[b], 0.0) * aliases / 60.0
     np.testing.assert_allclose(d.clutter_intensity, expected, rtol=1e-9)
 
 
@@ -398,3 +401,19 @@ def test_empirical_detection_rate_with_a_fluctuating_clutter_residue_matches_the
         p = detection_probability((snr[:, None] * gain).ravel(), 1e-3, 0).reshape(-1, x.size) @ w
         assert 0.1 < p.mean() < 0.97, "the check must be informative"
         assert abs(hits - p.sum()) < 4 * math.sqrt((p * (1 - p)).sum())
+
+
+@pytest.mark.parametrize("period", [7.49, 10.7, 60.0])
+def test_folded_uniform_density_is_the_histogram_of_folded_uniform_draws(period):
+    from uwb_env.sensing.parametric import fold_range_rate, folded_uniform_density
+
+    rng = np.random.default_rng(5)
+    x = fold_range_rate(rng.uniform(-30.0, 30.0, 400_000), period)
+    edges = np.linspace(-period / 2, period / 2, 41)
+    hist, _ = np.histogram(x, edges, density=True)
+    mid = 0.5 * (edges[1:] + edges[:-1])
+    dens = folded_uniform_density(mid, period, 30.0)
+    inner = np.abs(np.diff(folded_uniform_density(edges, period, 30.0))) == 0  # bins without a step inside
+    np.testing.assert_allclose(hist[inner], dens[inner], rtol=0.03)  # ~1 % sampling error per bin
+    f = np.linspace(-period / 2, period / 2, 200_001)[:-1]
+    assert np.mean(folded_uniform_density(f, period, 30.0)) * period == pytest.approx(1.0, abs=1e-4)  # a density

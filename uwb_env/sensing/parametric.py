@@ -260,6 +260,7 @@ class ParametricSensor:
         self._az_stack = np.stack([self._az_tables[p] for p in sorted(self._az_tables)]) if self._az_tables else None
         self._all_doa = bool((self._az_slot >= 0).all())
         self._rdot_var = cfg.sensing.clutter.range_rate_max_mps**2 / 3.0
+        self._rdot_max = cfg.sensing.clutter.range_rate_max_mps
         self._any_array = bool(lay.rx_has_array.any())
         self._any_doa = bool(self._doa_rx.any())
         self._fov = np.where(lay.rx_has_array, np.nan_to_num(lay.rx_fov_rad), np.inf)
@@ -866,8 +867,9 @@ class ParametricSensor:
                 range-only waveforms); period: the range-rate period of the rows' waveforms (scalar or ``(n,)``;
                 inf where unambiguous).
 
-        A folded range-rate of a false alarm whose true range-rate is uniform over +-rdot_max (wider than the
-        period) is uniform over the period: its density is 1 / period there.
+        A false alarm's true range-rate is uniform over +-rdot_max; folded into the period its density at f is the
+        number of aliases f + k P inside +-rdot_max over 2 rdot_max (``folded_uniform_density``; 1 / P when 2
+        rdot_max is a whole number of periods).
 
         For chirps the measurement noise lies along the delay-Doppler ridge, so a false alarm's range error is
         fixed by its range-rate error: the range map is read at the ridge-corrected range r - (R_rd / R_dd) rdot.
@@ -890,7 +892,7 @@ class ParametricSensor:
         if rdot_var is not None:
             var = rdot_var + self._rdot_var
             gauss = np.exp(-0.5 * rows[:, 2] ** 2 / var) / np.sqrt(2.0 * math.pi * var)
-            rho = rho * np.where(np.isfinite(period), 1.0 / period, gauss)
+            rho = rho * np.where(np.isfinite(period), folded_uniform_density(rows[:, 2], period, self._rdot_max), gauss)
         return rho
 
     def _covariances(self, waveform_of_row: np.ndarray, snr: FloatArray) -> FloatArray:
@@ -1156,6 +1158,17 @@ class ParametricSensor:
 
 _SQRT_HALF = math.sqrt(0.5)
 _KEY_SPAN = 1e9  # composite sort key: pair key x span + range [m]
+
+
+def folded_uniform_density(f: FloatArray, period: FloatArray | float, half_width: float) -> FloatArray:
+    """Density at folded values ``f`` (n,) of U(-half_width, half_width) folded into [-P/2, P/2) [1 / (m/s)].
+
+    The aliases f + k P inside the interval, counted: floor((w - f) / P) - ceil((-w - f) / P) + 1, over 2 w.
+    Inf periods give 1 / (2 w) (callers use the unfolded model there).
+    """
+    p = np.where(np.isfinite(period), period, 1.0)
+    n = np.floor((half_width - f) / p) - np.ceil((-half_width - f) / p) + 1.0
+    return np.where(np.isfinite(period), np.maximum(n, 0.0) / (2.0 * half_width), 1.0 / (2.0 * half_width))
 
 
 def fold_range_rate(rdot: FloatArray, period: FloatArray | float) -> FloatArray:
