@@ -55,8 +55,7 @@ import numpy as np
 
 from uwb_env.sensing.parametric import ParametricSensor
 from uwb_env.sensing.records import ScanPlan
-from uwb_env.tracking import compiled
-from uwb_env.tracking.ambiguity import RESOLVED_STDS
+from uwb_env.tracking import ambiguity, compiled
 from uwb_env.tracking.imm import imm_combine, switch_probabilities
 from uwb_env.tracking.kernels import linearisation_error, linearised_h, symmetrise
 from uwb_env.tracking.measurement import measure
@@ -134,7 +133,7 @@ def expected_posterior(
             R_w = R_w.copy()
             R_w[..., d, d] += cfg.range_rate_noise_floor_mps**2  # as the tracker's filter sees it
         period = np.full(A, np.inf)  # each plan's range-rate period at this pair (tracking.ambiguity)
-        period[used] = _range_rate_periods(sensor)[table.waveforms[used, tx]]
+        period[used] = sensor.library.range_rate_periods[table.waveforms[used, tx]]
         if every:  # plan a sends waveform sent[a]: no scatter
             pd, R = np.minimum(pd_w, cfg.max_detection_probability), R_w
         else:
@@ -161,14 +160,6 @@ def expected_posterior(
         Pa = _expected_update(Pa, x, P, names, tx_pos, rx_pos, tracker, R, pd, model, rho, period)
     return Pa
 
-
-def _range_rate_periods(sensor: ParametricSensor) -> FloatArray:
-    """``(W,)`` the range-rate period of every waveform of the library [m/s] (inf: unambiguous), cached."""
-    periods = getattr(sensor, "_lookahead_periods", None)
-    if periods is None:
-        periods = np.array([getattr(w, "range_rate_ambiguity_mps", np.inf) for w in sensor.library.waveforms])
-        sensor._lookahead_periods = periods
-    return periods
 
 
 def check_q2(q2: float | str) -> None:
@@ -241,19 +232,15 @@ def _expected_update(
     prediction does not resolve gets no information from it (``tracking.ambiguity.marginalise``).
     """
     _, S0, C = tracker.measurement_moments(names, x, P, tx_pos, rx_pos)
-    H = linearised_h(P, C)  # (N, m, 6)
-    omega = linearisation_error(S0, C, H)
-    A = Pa.shape[0]
-    H, omega = np.broadcast_to(H[None], (A, *H.shape)), np.broadcast_to(omega[None], (A, *omega.shape))
+    S0, C = S0[None], C[None]  # (1 or A, N, ...): per plan where a plan's period marginalises its range-rate
     if period is not None and "range_rate" in names and np.isfinite(period).any():
         d = names.index("range_rate")
-        finite = np.isfinite(period)
-        blind = finite[:, None] & (S0[None, :, d, d] > (np.where(finite, period, 1.0)[:, None] / RESOLVED_STDS) ** 2)
-        H, omega = H.copy(), omega.copy()
-        H[blind, d, :] = 0.0
-        omega[blind, d, :] = 0.0
-        omega[blind, :, d] = 0.0
-        omega[blind, d, d] = (np.broadcast_to(period[:, None], blind.shape)[blind]) ** 2 / (2.0 * np.pi)
+        A = Pa.shape[0]
+        S0, C = np.broadcast_to(S0, (A, *S0.shape[1:])), np.broadcast_to(C, (A, *C.shape[1:]))
+        blind = ambiguity.unresolved(S0, d, period[:, None])
+        S0, C = ambiguity.marginalise(S0, C, d, period[:, None], blind)
+    H = linearised_h(P, C)  # (1 or A, N, m, 6)
+    omega = linearisation_error(S0, C, H)
     PHt = Pa @ np.swapaxes(H, -1, -2)  # (A, N, 6, m)
     S = H @ PHt + omega + R
     K = np.swapaxes(np.linalg.solve(S, np.swapaxes(PHt, -1, -2)), -1, -2)

@@ -30,6 +30,7 @@ import numpy as np
 
 from uwb_env.constants import SPEED_OF_LIGHT_MPS
 from uwb_env.typing import FloatArray
+from uwb_env.waveforms.chirp import fold_periodic
 
 
 def chirp_range_spread_m(kappa: float, gamma: float) -> float:
@@ -56,8 +57,8 @@ def clutter_cnr_profile(
 
 
 def fold_doppler_hz(doppler_hz: FloatArray, prf_hz: FloatArray | float) -> FloatArray:
-    """Doppler folded into [-PRF / 2, PRF / 2)."""
-    return doppler_hz - prf_hz * np.floor(doppler_hz / prf_hz + 0.5)
+    """Doppler folded into [-PRF / 2, PRF / 2) (``waveforms.chirp.fold_periodic``)."""
+    return fold_periodic(doppler_hz, prf_hz)
 
 
 def doppler_notch_gain(

@@ -70,6 +70,7 @@ from uwb_env.sensing.protocol import register_sensor
 from uwb_env.sensing.records import Detections, ScanPlan
 from uwb_env.typing import BoolArray, FloatArray, IntArray
 from uwb_env.units import dbm_to_watts
+from uwb_env.waveforms.chirp import fold_periodic as fold_range_rate  # range-rate modulo lambda / T1
 from uwb_env.waveforms.library import Waveform, WaveformLibrary
 
 _RESIDUE_NODES = 24  # Gauss-Laguerre nodes of the residue-level average (1e-4 in Pd: tests/unit/test_parametric.py)
@@ -278,10 +279,7 @@ class ParametricSensor:
         self._unit_chol_stack = np.stack(self._unit_chol) if self._all_unit_chol else None
         self._unit_cov_stack = np.stack(self._unit_cov) if self._all_unit_chol else None
         self._wavelengths = np.array([w.wavelength_m for w in self.library.waveforms])
-        # Period of the measured range-rate per waveform (lambda / T1 for a chirp train; inf: unambiguous).
-        self.range_rate_period = np.array(
-            [getattr(w, "range_rate_ambiguity_mps", math.inf) for w in self.library.waveforms]
-        )
+        self.range_rate_period = self.library.range_rate_periods  # (W,) lambda / T1 of chirp trains; inf: unambiguous
         self._unit_gain = np.full((len(self.library), 1), self._pd_gain)  # no clutter residue: one node
         self._unit_weight = np.ones(1)
         self._link_cache: dict[tuple[int, ...], tuple] = {}  # mean_link's arguments per (tx, rx, waveforms...)
@@ -1169,17 +1167,6 @@ def folded_uniform_density(f: FloatArray, period: FloatArray | float, half_width
     p = np.where(np.isfinite(period), period, 1.0)
     n = np.floor((half_width - f) / p) - np.ceil((-half_width - f) / p) + 1.0
     return np.where(np.isfinite(period), np.maximum(n, 0.0) / (2.0 * half_width), 1.0 / (2.0 * half_width))
-
-
-def fold_range_rate(rdot: FloatArray, period: FloatArray | float) -> FloatArray:
-    """Range-rate folded into [-period / 2, period / 2) (unchanged where the period is inf).
-
-    Args: rdot ``(n,)`` [m/s]; period scalar or ``(n,)`` [m/s] (``ChirpWaveform.range_rate_ambiguity_mps``).
-    """
-    period = np.asarray(period, dtype=float)
-    finite = np.isfinite(period)
-    safe = np.where(finite, period, 1.0)
-    return np.where(finite, rdot - safe * np.floor(rdot / safe + 0.5), rdot)
 
 
 def _wrap(angle: FloatArray) -> FloatArray:

@@ -23,38 +23,37 @@ import math
 import numpy as np
 
 from uwb_env.typing import BoolArray, FloatArray
+from uwb_env.waveforms.chirp import fold_periodic
 
 RESOLVED_STDS = 6.0
 
 
-def fold(nu: FloatArray, period: float) -> FloatArray:
-    """Values folded into [-period / 2, period / 2)."""
-    return nu - period * np.floor(nu / period + 0.5)
-
-
-def unresolved(S0: FloatArray, d: int, period: float) -> BoolArray:
+def unresolved(S0: FloatArray, d: int, period: FloatArray | float) -> BoolArray:
     """``(...)`` True where the predicted range-rate std sqrt(S0_dd) exceeds period / RESOLVED_STDS.
 
-    Args: S0 ``(..., m, m)`` predicted measurement covariance without R; d the range-rate column; period [m/s].
+    Args: S0 ``(..., m, m)`` predicted measurement covariance without R; d the range-rate column; period [m/s], a
+    scalar or broadcasting against ``S0[..., d, d]`` (inf: unambiguous, never unresolved).
     """
     return S0[..., d, d] > (period / RESOLVED_STDS) ** 2
 
 
-def marginalise(S0: FloatArray, C: FloatArray, d: int, period: float, mask: BoolArray) -> tuple[FloatArray, FloatArray]:
+def marginalise(
+    S0: FloatArray, C: FloatArray, d: int, period: FloatArray | float, mask: BoolArray
+) -> tuple[FloatArray, FloatArray]:
     """``(S0, C)`` with the range-rate component of the ``mask``-ed rows marginalised (module docstring), copies.
 
-    Args: S0 ``(..., m, m)``, C ``(..., n, m)``, mask ``(...)``.
+    Args: S0 ``(..., m, m)``, C ``(..., n, m)``, mask ``(...)``; period [m/s], a scalar or broadcasting to ``mask``.
     """
     S0, C = S0.copy(), C.copy()
     S0[mask, d, :] = 0.0
     S0[mask, :, d] = 0.0
-    S0[mask, d, d] = period**2 / (2.0 * math.pi)
+    S0[mask, d, d] = np.broadcast_to(period, mask.shape)[mask] ** 2 / (2.0 * math.pi)
     C[mask, :, d] = 0.0
     return S0, C
 
 
 def fold_innovations(nu: FloatArray, d: int, period: float, mask: BoolArray) -> FloatArray:
     """Innovations ``(N, r, M, m)`` with the range-rate folded, and zeroed for the ``mask``-ed (N, r) (in place)."""
-    nu[..., d] = fold(nu[..., d], period)
+    nu[..., d] = fold_periodic(nu[..., d], period)
     nu[mask, :, d] = 0.0
     return nu

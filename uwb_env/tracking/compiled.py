@@ -117,14 +117,20 @@ def _linearisation_error(S0, C, n, r, H, Om):  # pragma: no cover - compiled
 
 
 @_jit
-def _folded_column(kinds, period):  # pragma: no cover - compiled
-    """The range-rate column when it is folded (a finite period > 0), else -1."""
-    if not (period > 0.0 and period < np.inf):
-        return -1
+def _range_rate_column(kinds):  # pragma: no cover - compiled
+    """The range-rate column of a measurement's ``kinds``, or -1."""
     for c in range(kinds.shape[0]):
         if kinds[c] == _RANGE_RATE:
             return c
     return -1
+
+
+@_jit
+def _folded_column(kinds, period):  # pragma: no cover - compiled
+    """The range-rate column when it is folded (a finite period > 0), else -1."""
+    if not (period > 0.0 and period < np.inf):
+        return -1
+    return _range_rate_column(kinds)
 
 
 @_jit
@@ -755,10 +761,7 @@ def expected_update(
     Kt = np.empty((m, _NS))
     Hb = np.empty((m, _NS))
     Omb = np.empty((m, m))
-    fold_col = -1
-    for c in range(m):
-        if kinds[c] == _RANGE_RATE:
-            fold_col = c
+    fold_col = _range_rate_column(kinds)
     for n in range(N):
         if not _linearised_h(P[n], C, n, 0, L, Cl, Y, H):
             return False

@@ -3,6 +3,7 @@
 from uwb_env.waveforms.chirp import (
     ChirpWaveform,
     chirp_rate,
+    fold_periodic,
     gaussian_chirp_fim,
     gaussian_chirp_range_rate_covariance,
     pulse_train_time_spread,
@@ -21,6 +22,7 @@ __all__ = [
     "chirp_rate",
     "energy_detector_coefficients",
     "energy_detector_toa_std",
+    "fold_periodic",
     "gaussian_chirp_fim",
     "gaussian_chirp_range_rate_covariance",
     "gaussian_pulse_rms_bandwidth",

@@ -122,6 +122,17 @@ def gaussian_chirp_range_rate_covariance(
     return inv[..., None, None] * base
 
 
+def fold_periodic(values: FloatArray, period: FloatArray | float) -> FloatArray:
+    """Values folded into [-period / 2, period / 2); unchanged where the period is inf. Every argument broadcasts.
+
+    What a pulse train measures of a Doppler (period 1 / T1 [Hz]) or of a range-rate (period lambda / T1 [m/s]).
+    """
+    period = np.asarray(period, dtype=float)
+    finite = np.isfinite(period)
+    safe = np.where(finite, period, 1.0)
+    return np.where(finite, values - safe * np.floor(values / safe + 0.5), values)
+
+
 def range_doppler_coupling_m(kappa: float, gamma: float, wavelength_m: float, range_rate_mps: FloatArray) -> FloatArray:
     """Range offset [m] of the compressed peak of a chirp with Doppler, compressed by the un-shifted replica.
 

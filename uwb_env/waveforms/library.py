@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from typing import Protocol
 
+import numpy as np
+
 from uwb_env.config import ChirpWaveformConfig, ImpulseWaveformConfig, WaveformConfig
 from uwb_env.typing import FloatArray
 from uwb_env.waveforms.chirp import ChirpWaveform
@@ -59,6 +61,12 @@ class WaveformLibrary:
             raise ValueError(f"WaveformLibrary: measurement dimensions {sorted(dims)} differ; use one kind")
         self.measurement_dim = dims.pop()
         self.measurement_names = self.waveforms[0].measurement_names
+        # (W,) the period of each waveform's measured range-rate [m/s]: lambda / T1 for a chirp train, inf where the
+        # range-rate is unambiguous or not measured (tracking.ambiguity); read-only
+        self.range_rate_periods = np.array(
+            [getattr(w, "range_rate_ambiguity_mps", np.inf) for w in self.waveforms], dtype=float
+        )
+        self.range_rate_periods.flags.writeable = False
 
     def __len__(self) -> int:
         return len(self.waveforms)

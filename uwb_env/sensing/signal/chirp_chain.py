@@ -117,7 +117,7 @@ from uwb_env.config import ChirpWaveformConfig
 from uwb_env.constants import SPEED_OF_LIGHT_MPS
 from uwb_env.detection.delay_doppler import DelayDopplerAxes
 from uwb_env.typing import BoolArray, FloatArray, IntArray
-from uwb_env.waveforms.chirp import chirp_rate
+from uwb_env.waveforms.chirp import chirp_rate, fold_periodic
 
 ComplexArray = npt.NDArray[np.complex128]
 
@@ -165,11 +165,9 @@ def fold_range_rate(range_rate_mps: FloatArray, wavelength_m: float, pri_s: floa
         range_rate_mps: ``(...)`` [m/s]; wavelength_m [m]; pri_s: T1 [s].
 
     Returns:
-        ``(...)`` folded range-rate in (-lambda / (2 T1), lambda / (2 T1)] [m/s].
+        ``(...)`` folded range-rate in [-lambda / (2 T1), lambda / (2 T1)) [m/s] (``waveforms.chirp.fold_periodic``).
     """
-    span = 1.0 / pri_s
-    nu = -np.asarray(range_rate_mps, dtype=float) / wavelength_m
-    return -wavelength_m * (np.mod(nu + 0.5 * span, span) - 0.5 * span)
+    return fold_periodic(np.asarray(range_rate_mps, dtype=float), wavelength_m / pri_s)
 
 
 # --------------------------------------------------------------------------------------------------- the grid

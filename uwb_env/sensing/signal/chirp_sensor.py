@@ -104,6 +104,7 @@ from uwb_env.sensing.parametric import ParametricSensor, fold_range_rate, receiv
 from uwb_env.sensing.protocol import register_sensor
 from uwb_env.sensing.records import Detections, ScanPlan
 from uwb_env.sensing.signal import chirp_chain as cc
+from uwb_env.sensing.signal.model_hooks import ParametricModelHooks
 from uwb_env.typing import BoolArray, FloatArray, IntArray
 from uwb_env.units import db_to_linear, dbm_to_watts
 
@@ -184,7 +185,7 @@ class _ScanDraws:
 
 
 @register_sensor("signal", "chirp")
-class ChirpSignalSensor:
+class ChirpSignalSensor(ParametricModelHooks):
     """Seed 003's chirp chain as a sensor (component tier); the parametric model is ``self.model``."""
 
     def __init__(self, cfg: ScenarioConfig) -> None:
@@ -644,36 +645,6 @@ class ChirpSignalSensor:
         ph = self._beam_phasors(q, doa)
         n_el = self.elements[q][0]
         return ph, (np.abs(ph) ** 2).max(axis=1) / n_el**2
-
-    # ------------------------------------------------------------------------------ the sensor model (parametric)
-    def detection_probability_at(
-        self, tx: int, rx: int, positions: FloatArray, waveform: int, rcs_m2: float = 1.0, swerling: int = 1
-    ) -> FloatArray:
-        """The parametric sensor model's Pd (:meth:`ParametricSensor.detection_probability_at`)."""
-        return self.model.detection_probability_at(tx, rx, positions, waveform, rcs_m2, swerling)
-
-    def expected_measurements(
-        self,
-        tx: int,
-        rx: int,
-        positions: FloatArray,
-        waveforms: IntArray,
-        rcs_m2: float = 1.0,
-        swerling: int = 1,
-        velocities: FloatArray | None = None,
-    ) -> tuple[FloatArray, FloatArray]:
-        """The parametric sensor model's lookahead inputs (:meth:`ParametricSensor.expected_measurements`)."""
-        return self.model.expected_measurements(tx, rx, positions, waveforms, rcs_m2, swerling, velocities)
-
-    def clutter_intensity_at(
-        self, tx: int, rx: int, z: FloatArray, R: FloatArray, waveforms: IntArray | None = None
-    ) -> FloatArray:
-        """The parametric sensor model's clutter map (:meth:`ParametricSensor.clutter_intensity_at`)."""
-        return self.model.clutter_intensity_at(tx, rx, z, R, waveforms)
-
-    def measurement_names(self, rx: int) -> tuple[str, ...]:
-        """Components of the per-pair measurements: bistatic range and range-rate."""
-        return self.model.measurement_names(rx)
 
 
 def _sub_grid(grid: cc.ChirpGrid, pairs: IntArray) -> cc.ChirpGrid:

@@ -48,6 +48,7 @@ from uwb_env.scene.truth import Truth
 from uwb_env.sensing.parametric import EpisodeGeometry, ParametricSensor
 from uwb_env.sensing.protocol import register_sensor
 from uwb_env.sensing.records import Detections, ScanPlan
+from uwb_env.sensing.signal.model_hooks import ParametricModelHooks
 from uwb_env.sensing.signal.synthesis import (
     ar1_step,
     exponential_profile,
@@ -102,7 +103,7 @@ class ScanTrace:
 
 
 @register_sensor("signal", "impulse")
-class SignalSensor:
+class SignalSensor(ParametricModelHooks):
     """Synthesises each scan and runs the detection and localization chains (component tier)."""
 
     def __init__(self, cfg: ScenarioConfig) -> None:
@@ -453,22 +454,3 @@ class SignalSensor:
             clutter_intensity=np.full(n, density),
             expected_false_alarms=density * self._area_m2,
         )
-
-    # ------------------------------------------------------------------------------ the sensor model (parametric)
-    def detection_probability_at(self, *args, **kwargs) -> FloatArray:
-        """The parametric sensor model's per-pair Pd (see :meth:`ParametricSensor.detection_probability_at`)."""
-        return self.model.detection_probability_at(*args, **kwargs)
-
-    def expected_measurements(self, *args, **kwargs):
-        """The parametric sensor model's lookahead inputs (see :meth:`ParametricSensor.expected_measurements`)."""
-        return self.model.expected_measurements(*args, **kwargs)
-
-    def clutter_intensity_at(
-        self, tx: int, rx: int, z: FloatArray, R: FloatArray, waveforms: IntArray | None = None
-    ) -> FloatArray:
-        """The parametric sensor model's clutter map (see :meth:`ParametricSensor.clutter_intensity_at`)."""
-        return self.model.clutter_intensity_at(tx, rx, z, R, waveforms)
-
-    def measurement_names(self, rx: int) -> tuple[str, ...]:
-        """Components of the parametric per-pair measurements (the lookahead's model)."""
-        return self.model.measurement_names(rx)
