@@ -11,7 +11,6 @@ from hypothesis import strategies as st
 
 from uwb_env import scenarios
 from uwb_env.channel.doppler_notch import (
-    chirp_range_spread_m,
     clutter_cnr_profile,
     doppler_notch_gain,
     fold_doppler_hz,
@@ -20,6 +19,7 @@ from uwb_env.channel.doppler_notch import (
 from uwb_env.constants import SPEED_OF_LIGHT_MPS as C
 from uwb_env.sensing import ParametricSensor
 from uwb_env.waveforms import chirp_rate
+from uwb_env.waveforms.chirp import compressed_range_spread_m as chirp_range_spread_m
 
 
 def test_range_spread_is_the_std_of_the_compressed_chirp_power():

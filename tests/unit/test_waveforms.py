@@ -295,3 +295,15 @@ def test_impulse_covariance_positive_and_non_increasing_in_snr(fc, frac, n_pulse
     assert np.all(np.isfinite(R))
     assert np.all(R > 0)
     assert R[1, 0, 0] <= R[0, 0, 0]
+
+
+def test_range_migration_gain_hand_values_and_limits():
+    """G = [mean_b exp(-(rdot T1 b / (2 sigma_r))^2)]^2, b = -(B-1)/2 .. (B-1)/2: hand-computed for B = 3."""
+    from uwb_env.waveforms.chirp import range_migration_gain
+
+    # B = 3, rdot T1 / (2 sigma_r) = 1: offsets -1, 0, 1 -> [(2 e^-1 + 1) / 3]^2
+    assert range_migration_gain(10.0, 0.05, 0.01, 3) == pytest.approx(((2 * math.exp(-1.0) + 1.0) / 3.0) ** 2)
+    assert range_migration_gain(0.0, 0.6, 0.01, 25) == 1.0  # no walk
+    assert range_migration_gain(30.0, 0.6, 0.01, 1) == 1.0  # one pulse: nothing to sum
+    g = range_migration_gain(np.array([-20.0, 20.0]), 0.6, np.array([[0.01], [0.007]]), 25)
+    assert g.shape == (2, 2) and g[0, 0] == g[0, 1] and g[1, 0] > g[0, 0]  # even in rdot; a shorter PRI walks less

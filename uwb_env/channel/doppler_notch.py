@@ -14,7 +14,8 @@ Model (parametric path; its constants are calibrated on the signal path):
 
     CNR(r)  = sum_c SNR_c exp(-(r - r_c)^2 / (2 sigma_r^2))   static scatterers' echoes over the compressed pulse,
               SNR_c from the bistatic radar equation of each visible scatterer (RCS sigma_c) like a target's,
-              sigma_r = c / sqrt(2 (a + gamma^2 / a)), a = 1 / (2 kappa^2): the Gaussian chirp's |chi(tau, 0)|^2,
+              sigma_r = c / sqrt(2 (a + gamma^2 / a)), a = 1 / (2 kappa^2): the Gaussian chirp's |chi(tau, 0)|^2
+              (``uwb_env.waveforms.chirp.compressed_range_spread_m``),
     G(f)    = exp(-f^2 / (2 sigma_f^2)),  sigma_f^2 = sigma_D^2 + s^2: the train's Doppler main lobe,
               |D_B(f)|^2 / B^2 ~ exp(-f^2 / (2 sigma_D^2)) with sigma_D = sqrt(3/2) / (pi T1 sqrt(B^2 - 1)) (curvature
               of the Dirichlet kernel at 0), widened by the clutter's own Doppler spread s,
@@ -28,15 +29,8 @@ import math
 
 import numpy as np
 
-from uwb_env.constants import SPEED_OF_LIGHT_MPS
 from uwb_env.typing import FloatArray
 from uwb_env.waveforms.chirp import fold_periodic
-
-
-def chirp_range_spread_m(kappa: float, gamma: float) -> float:
-    """Std [m] of the compressed Gaussian chirp's power |chi(tau, 0)|^2 = exp(-tau^2 (a + gamma^2 / a)), in range."""
-    a = 1.0 / (2.0 * kappa**2)
-    return SPEED_OF_LIGHT_MPS / math.sqrt(2.0 * (a + gamma**2 / a))
 
 
 def train_doppler_spread_hz(n_pulses: int, pri_s: float, clutter_spread_hz: float = 0.0) -> float:

@@ -58,6 +58,7 @@ Our choices (the seed does not give them):
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 from uwb_env.config import (
@@ -86,6 +87,8 @@ BUILDING = MaterialConfig("building", loss_db=math.inf)
 # Peak power putting the short chirp's one-pulse, one-element E/N0 at the seed's 0.2 on the path's median link
 # (module docstring; scripts/seed003_regime.py prints the distribution).
 SEED_REGIME_POWER_DBM = 4.5
+# The wideband chirps' swept bandwidth (``urban-intersection-wideband``): 4x the seed's 40 MHz.
+WIDEBAND_HZ = 160e6
 # The parametric model calibrated on the signal path (scripts/calibrate_chirp.py, results/calibration-urban/report.md):
 # the detector's gain over the square-law model (the strongest of the neighbouring cells and beams), multipath ghosts
 # (rate per covered target, pair and scan; mean range offset beyond the target; range-rate spread) and the
@@ -125,6 +128,31 @@ def seed003_path(first_leg_s: float = 5.0) -> SegmentedTrajectoryConfig:
     )
 
 
+def _chirp(kappa_us: float, sweep: str, pri_ms: int, bandwidth_hz: float = 40e6) -> ChirpWaveformConfig:
+    """25 Gaussian chirps every ``pri_ms`` at 4 GHz, named by kappa, sweep, and bandwidth / PRI where not the seed's."""
+    band = "" if bandwidth_hz == 40e6 else f"-{bandwidth_hz / 1e6:.0f}mhz"
+    pri = "" if pri_ms == 10 else f"-pri{pri_ms}ms"
+    return ChirpWaveformConfig(
+        f"k{kappa_us}us-{sweep}{band}{pri}",
+        pulse_duration_s=kappa_us * 1e-6,
+        bandwidth_hz=bandwidth_hz,
+        carrier_hz=4e9,
+        sweep=sweep,
+        n_pulses=25,
+        pri_s=pri_ms * 1e-3,
+    )
+
+
+def seed003_library() -> tuple[ChirpWaveformConfig, ...]:
+    """The seed's four chirps (kappa 0.5 / 1.375 us, up / down, 10 ms) and the up-sweeps again at a 7 ms PRI."""
+    return tuple(
+        _chirp(kappa_us, sweep, pri_ms)
+        for pri_ms, sweeps in ((10, ("up", "down")), (7, ("up",)))
+        for kappa_us in (0.5, 1.375)
+        for sweep in sweeps
+    )
+
+
 def _vegetation() -> tuple[tuple[float, float], ...]:
     pts: list[tuple[float, float]] = []
     pts += [(x, 1512.0) for x in range(1910, 2021, 10)]  # centre median of the east-west street
@@ -140,20 +168,7 @@ def _vegetation() -> tuple[tuple[float, float], ...]:
 def urban_intersection() -> ScenarioConfig:
     """Seed 003's urban intersection with two vehicles and a four-chirp library."""
     array = UniformLinearArrayConfig(n_elements=3, spacing_m=0.0375, boresight_deg=130.0, field_of_view_deg=50.0)
-    chirps = tuple(
-        ChirpWaveformConfig(
-            f"k{kappa_us}us-{sweep}" + ("" if pri_ms == 10 else f"-pri{pri_ms}ms"),
-            pulse_duration_s=kappa_us * 1e-6,
-            bandwidth_hz=40e6,
-            carrier_hz=4e9,
-            sweep=sweep,
-            n_pulses=25,
-            pri_s=pri_ms * 1e-3,
-        )
-        for pri_ms, sweeps in ((10, ("up", "down")), (7, ("up",)))
-        for kappa_us in (0.5, 1.375)
-        for sweep in sweeps
-    )
+    chirps = seed003_library()
     path = seed003_path()
     walls = (
         rectangle_walls(1910, 2040, 1320, 1478, BUILDING)  # south-west block
@@ -207,4 +222,27 @@ def urban_intersection() -> ScenarioConfig:
                 doppler_spread_hz=CALIBRATED["doppler_spread_hz"],
             ),
         ),
+    )
+
+
+@register("urban-intersection-wideband")
+def urban_intersection_wideband() -> ScenarioConfig:
+    """Seed 003's intersection with two 160 MHz long up-chirps (10 and 7 ms PRI) added to its library (``Discrete(8)``).
+
+    Beyond the seed: bandwidth against range migration. A 160 MHz chirp measures the bistatic range 4x finer than the
+    seed's 40 MHz ones (0.6 m -> 0.15 m std at the same SNR; with the receivers 12 m apart the cross-range of the
+    two-ellipse fix shrinks with it), but its compressed pulse (sigma_r 0.6 m) is narrower than the range walk of a
+    vehicle across the 0.25 s dwell, which seed 003's filter does not follow: -2.7 dB at 10 m/s and -7.5 dB at
+    20 m/s bistatic range-rate at the 10 ms PRI, -1.4 / -4.7 dB at 7 ms (``uwb_env.waveforms.chirp``). Which
+    waveform is best depends on each vehicle's range-rate: a scheduling problem the seed's library does not pose.
+    Not calibrated separately: the 160 MHz waveforms use the 40 MHz calibration (``CALIBRATED``); the range-walk loss
+    itself is checked against the signal chain (tests/unit/test_chirp_chain.py).
+    """
+    base = urban_intersection()
+    wide = tuple(_chirp(1.375, "up", pri_ms, WIDEBAND_HZ) for pri_ms in (10, 7))
+    return dataclasses.replace(
+        base,
+        name="urban-intersection-wideband",
+        description=base.description + " Two 160 MHz chirps added (bandwidth against range migration).",
+        waveforms=base.waveforms + wide,
     )

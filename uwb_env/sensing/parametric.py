@@ -50,7 +50,6 @@ from scipy.special import roots_genlaguerre
 
 from uwb_env.channel.coverage import blind_zone, in_field_of_view
 from uwb_env.channel.doppler_notch import (
-    chirp_range_spread_m,
     clutter_cnr_profile,
     doppler_notch_gain,
     train_doppler_spread_hz,
@@ -284,6 +283,7 @@ class ParametricSensor:
         self._unit_weight = np.ones(1)
         self._link_cache: dict[tuple[int, ...], tuple] = {}  # mean_link's arguments per (tx, rx, waveforms...)
         self._notch = self._static_clutter_tables()
+        self._migration = self._migration_tables()
 
     def _static_clutter_tables(self) -> tuple[FloatArray, float, FloatArray, FloatArray, FloatArray] | None:
         """The zero-Doppler clutter notch of chirp trains (``uwb_env.channel.doppler_notch``), or None.
@@ -305,7 +305,7 @@ class ParametricSensor:
         W = len(self.library)
         cnr = np.zeros((W, self.n_tx, self.n_rx, grid.size))
         for w, wf in enumerate(self.library.waveforms):  # the library: a small fixed set
-            spread = chirp_range_spread_m(wf.config.pulse_duration_s, wf.gamma)
+            spread = wf.range_spread_m
             for t in range(self.n_tx):  # nodes: a small fixed set
                 for r in range(self.n_rx):
                     cnr[w, t, r] = self.radar_constant[w, t, r] * clutter_cnr_profile(
@@ -316,6 +316,34 @@ class ParametricSensor:
             [train_doppler_spread_hz(w.config.n_pulses, w.config.pri_s, cl.doppler_spread_hz) for w in chirps]
         )
         return cnr, step, pri, sigma_f, self._wavelengths.copy()
+
+    def _migration_tables(self) -> tuple[FloatArray, FloatArray] | None:
+        """Per chirp train: ``(walk scale T1 / (2 sigma_r) (W,) [s/m], pulse offsets b (W, B_max))``, or None.
+
+        b = -(B-1)/2 .. (B-1)/2 for each waveform's B, NaN-padded to the longest train
+        (``uwb_env.waveforms.chirp.range_migration_gain``).
+        """
+        wfs = self.library.waveforms
+        if not all(hasattr(w, "migration_gain") for w in wfs):
+            return None
+        n = np.array([w.config.n_pulses for w in wfs])
+        b = np.arange(n.max())[None, :] - 0.5 * (n[:, None] - 1)
+        offsets = np.where(np.arange(n.max())[None, :] < n[:, None], b, np.nan)
+        scale = np.array([w.config.pri_s / (2.0 * w.range_spread_m) for w in wfs])
+        return scale, offsets
+
+    def migration_gain(self, w: IntArray, range_rate: FloatArray) -> FloatArray:
+        """Power gain (<= 1) of each waveform's coherent train for targets walking at ``range_rate`` [m/s].
+
+        ``w`` and ``range_rate`` broadcast; 1 for libraries without pulse trains
+        (``uwb_env.waveforms.chirp.range_migration_gain``: seed 003's filter does not follow the range walk).
+        """
+        if self._migration is None:
+            return np.ones(np.broadcast_shapes(np.shape(range_rate), np.shape(w)))
+        scale, offsets = self._migration
+        w, rdot = np.broadcast_arrays(np.asarray(w), np.asarray(range_rate, dtype=float))
+        amp = np.nanmean(np.exp(-np.square((rdot * scale[w])[..., None] * offsets[w])), axis=-1)
+        return amp * amp
 
     def clutter_to_noise(self, w: IntArray, tx: IntArray, rx: IntArray, bistatic_range: FloatArray) -> FloatArray:
         """CNR(r) of the static scatterers at ``bistatic_range`` [m] (0 without static clutter); arguments broadcast."""
@@ -634,6 +662,10 @@ class ParametricSensor:
             )
             scnr = scnr * gain
             snr_all = snr_all * gain  # the clutter shares the target's delay-Doppler cell: R at the SCNR too
+        if self._migration is not None:  # the range walk across each train's dwell (seed 003's filter: no keystone)
+            gain = self.migration_gain(np.arange(W)[:, None, None, None, None], geom.range_rate[None])
+            scnr = scnr * gain
+            snr_all = snr_all * gain
         target_hit = np.abs(np.sqrt(scnr) + offset[None]) > level[None]
         if self._all_unit_chol:  # every waveform in one batch (per-row waveform index)
             n_t = e_t.shape[0]
@@ -1052,12 +1084,13 @@ class ParametricSensor:
         receiver appended (columns ``measurement_names(rx)``); uncovered positions get Pd = 0 and R at unit SNR.
         The CRLB waveform models go through one compiled pass (``sensing.compiled.expected_covariance``);
         ``_expected_covariance_reference`` is its numpy reference and serves the other models.
-        With ``velocities`` (N, 2) [m/s] and static clutter, Pd and R are taken at the SCNR of the zero-Doppler
-        clutter notch (:meth:`notch_gain`): what makes the PRI a choice.
+        With ``velocities`` (N, 2) [m/s], Pd and R are taken at the SCNR of the zero-Doppler clutter notch
+        (:meth:`notch_gain`) and after the train's range-migration loss (:meth:`migration_gain`): what makes the PRI
+        and the bandwidth choices.
         """
         waveforms = np.asarray(waveforms, dtype=np.int64).reshape(-1)
         az, ok, snr, pd = self._mean_link(tx, rx, positions, waveforms, rcs_m2, swerling)
-        if self._notch is not None and velocities is not None:
+        if velocities is not None and (self._notch is not None or self._migration is not None):
             pos = np.asarray(positions, dtype=float).reshape(-1, 2)
             vel = np.asarray(velocities, dtype=float).reshape(-1, 2)
             lay = self.layout
@@ -1065,6 +1098,7 @@ class ParametricSensor:
             lt, lr = np.linalg.norm(dt, axis=1), np.linalg.norm(dr, axis=1)
             rdot = np.einsum("nd,nd->n", dt / np.maximum(lt, 1e-9)[:, None] + dr / np.maximum(lr, 1e-9)[:, None], vel)
             snr = snr * self.notch_gain(waveforms[:, None], tx, rx, (lt + lr)[None], rdot[None])
+            snr = snr * self.migration_gain(waveforms[:, None], rdot[None])
             pfa = self.cfg.sensing.false_alarm_probability
             # the detector's gain as in _mean_link: detection_gain_db and, with a clutter residue, its quadrature
             gain, weights = self._link_args(tx, rx, waveforms)[2:]  # (W, J), (J,)
