@@ -18,7 +18,7 @@ E. range / range-rate spread of strong Swerling 0 echoes against the pulse-train
 F. the clutter notch: Pd of echoes at the vehicles' positions with folded Doppler near zero (blind speeds), and the
    ``residue_fraction`` / ``doppler_spread_hz`` that make the parametric Pd match (maximum likelihood on a grid).
 
-Run: python scripts/calibrate_chirp.py [--out results/calibration-urban] [--scale 1.0] [--seed 0]
+Run: python scripts/calibrate_chirp.py [--out results/calibration-urban] [--scale 1.0] [--seed 0] [--scenario NAME]
 (``--scale`` multiplies every Monte Carlo count; 1.0 takes ~3-5 minutes on one core.)
 """
 
@@ -89,13 +89,16 @@ def random_geometry(b: Bench, rng: np.random.Generator, n: int, w: int, blind: b
 
 
 def notch(b: Bench, w: int, q: np.ndarray, length: np.ndarray, rdot: np.ndarray, eta: float, spread: float):
-    """Parametric SCNR / SNR at (pair, range, range-rate) with residue fraction ``eta`` and clutter spread [Hz]."""
+    """Parametric SCNR / SNR at (pair, range, range-rate) with residue fraction ``eta`` and clutter spread [Hz].
+
+    Includes the train's range-migration loss (``ParametricSensor.migration_gain``): the signal path's echoes walk.
+    """
     p = b.param
     t, r = p.pairs[q, 0], p.pairs[q, 1]
     cnr = p.clutter_to_noise(w, t, r, length)
     wf = p.library[w]
     sigma = train_doppler_spread_hz(wf.config.n_pulses, wf.config.pri_s, spread)
-    return doppler_notch_gain(cnr, rdot, wf.wavelength_m, wf.config.pri_s, sigma, eta)
+    return doppler_notch_gain(cnr, rdot, wf.wavelength_m, wf.config.pri_s, sigma, eta) * p.migration_gain(w, rdot)
 
 
 def _pair_index(p: ParametricSensor, tx: int, rx: int) -> int:
@@ -135,7 +138,7 @@ def section_pd(b: Bench, rng: np.random.Generator, n: int, snr_db: np.ndarray) -
     """B: Pd over mean SNR per waveform, signal vs parametric (Swerling I, away from the blind speeds)."""
     s, pfa = b.signal, b.cfg.sensing.false_alarm_probability
     out = {}
-    for w in range(len(s.library)):  # the library: 6 waveforms
+    for w in range(len(s.library)):  # the library: 6-8 waveforms
         sig, par, eff = [], [], []
         for x in snr_db:  # SNR grid: a dozen points
             g = random_geometry(b, rng, n, w)
@@ -702,11 +705,14 @@ def report(out: Path, res: dict, command: str, elapsed: float) -> None:
 
 
 def main() -> None:
+    global SCENARIO  # the sections read the calibrated scenario from here
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", default="results/calibration-urban")
     ap.add_argument("--scale", type=float, default=1.0, help="multiplies every Monte Carlo count")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--scenario", default=SCENARIO, choices=("urban-intersection", "urban-intersection-wideband"))
     args = ap.parse_args()
+    SCENARIO = args.scenario
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     n = lambda x: max(2, round(x * args.scale))  # noqa: E731
@@ -729,6 +735,7 @@ def main() -> None:
     elapsed = time.perf_counter() - t0
     figures(out, res["pd"]["curves"], res["notch"])
     cmd = "python scripts/calibrate_chirp.py" + ("" if args.scale == 1.0 else f" --scale {args.scale}")
+    cmd += "" if args.scenario == "urban-intersection" else f" --scenario {args.scenario} --out {args.out}"
     report(out, res, cmd, elapsed)
     slim = {k: v for k, v in res.items() if k != "notch"}
     slim["notch"] = {k: v for k, v in res["notch"].items() if k != "table"}
