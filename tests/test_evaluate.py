@@ -8,7 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from scripts.evaluate import Campaign, main, mean_ci, parse_overrides, run_campaign, run_metrics, run_path, summarise
+from uwb_env.agents.campaign import Campaign, run_campaign, run_path
+from uwb_env.agents.cli import evaluate_main as main
+from uwb_env.agents.cli import parse_overrides
+from uwb_env.agents.summary import mean_ci, run_metrics, summarise
 
 SMALL = {"n_scans": 12, "targets.1.birth_time_s": 1.0}
 
@@ -121,7 +124,7 @@ def test_sign_rank_counts_and_p_value():
     Ten positive differences, distinct ranks: the exact null probability of rank sum 55 (the maximum) is 2^-10,
     two-sided 2 * 2^-10 = 0.00195.
     """
-    from scripts.evaluate import sign_rank
+    from uwb_env.agents.summary import sign_rank
 
     d = np.array([0.0, 0.0, *np.arange(1.0, 11.0)])
     assert sign_rank(d) == (10, 0, "0.002")
