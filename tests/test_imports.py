@@ -4,7 +4,6 @@ ray), and the env ids still reach ``gymnasium.make`` the documented ways, in eit
 from __future__ import annotations
 
 import pathlib
-import re
 import subprocess
 import sys
 
@@ -85,20 +84,3 @@ def test_gymnasium_make_finds_every_registered_id(order):
     assert ids == str(sorted(ENV_IDS))
     assert "_RunAfterExec" not in loaders  # gymnasium keeps its own loader
     assert hook_left == "False"  # the import hook removed itself once it had registered
-
-
-def _readme_python_blocks() -> list[str]:
-    text = (ROOT / "README.md").read_text()
-    return re.findall(r"^```python\n(.*?)^```", text, flags=re.M | re.S)
-
-
-def test_the_readme_has_its_three_python_examples():
-    blocks = _readme_python_blocks()
-    assert len(blocks) == 3
-    assert any("gym.make(" in b for b in blocks)
-
-
-@pytest.mark.parametrize("index", range(3))
-def test_every_python_example_of_the_readme_runs_as_written(index):
-    """Each example, verbatim, in a fresh interpreter (the env example plays a whole episode with myopic)."""
-    assert _python(_readme_python_blocks()[index] + "\nprint('ran')\n").endswith("ran")
