@@ -84,3 +84,11 @@ def test_gymnasium_make_finds_every_registered_id(order):
     assert ids == str(sorted(ENV_IDS))
     assert "_RunAfterExec" not in loaders  # gymnasium keeps its own loader
     assert hook_left == "False"  # the import hook removed itself once it had registered
+
+
+def test_a_failing_env_import_is_reported_by_the_import_that_triggers_registration():
+    """If ``uwb_env.envs`` cannot be imported, importing gymnasium afterwards says why, naming uwb_env.envs."""
+    code = "import sys, uwb_env\nsys.modules['uwb_env.envs'] = None  # cannot be imported\nimport gymnasium\n"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert out.returncode != 0
+    assert "once both are imported, and importing uwb_env.envs failed" in out.stderr

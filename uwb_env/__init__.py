@@ -32,7 +32,13 @@ def _register_envs_if_ready() -> None:
     """
     if "gymnasium" not in sys.modules:
         return
-    envs = importlib.import_module("uwb_env.envs")
+    try:
+        envs = importlib.import_module("uwb_env.envs")
+    except Exception as exc:  # reached from another package's import: say why that import fails
+        raise ImportError(
+            f"uwb_env registers its env ids with gymnasium once both are imported, and importing uwb_env.envs failed: "
+            f"{type(exc).__name__}: {exc}"
+        ) from exc
     register = getattr(envs, "register_envs", None)
     if register is None:
         return
