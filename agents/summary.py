@@ -8,11 +8,52 @@ from __future__ import annotations
 
 import math
 import pathlib
+from collections.abc import Sequence
 
 import numpy as np
 from scipy import stats
 
-from uwb_env.agents.campaign import METRICS, Campaign, load_runs
+from uwb_env.agents.campaign import (
+    METRICS,
+    Campaign,
+    check_workers,
+    finished_seeds,
+    load_runs,
+    preflight,
+    run_campaign,
+)
+from uwb_env.agents.storage import FolderLock, atomic_write, atomic_write_text
+
+
+class CampaignInterrupted(Exception):
+    """A campaign stopped by Ctrl-C (or SIGTERM): ``summary`` of the finished paired runs (``None``: none yet)."""
+
+    def __init__(self, out: pathlib.Path, finished: int, total: int, summary: str | None) -> None:
+        super().__init__(f"{out}: interrupted with {finished} of {total} paired runs finished; run again to resume")
+        self.summary = summary
+
+
+def evaluate(campaign: Campaign, out: pathlib.Path, workers: int = 1, progress: bool = True) -> str:
+    """Run (or resume) the campaign and summarise it, holding the folder's lock throughout; the summary.
+
+    On ``KeyboardInterrupt`` the workers are stopped at once (:func:`~uwb_env.agents.campaign.run_campaign`), the
+    paired runs that every scheme finished are summarised, and :class:`CampaignInterrupted` carries that summary.
+    """
+    check_workers(workers)
+    preflight(campaign)  # every argument checked before the folder is created or locked
+    with FolderLock(out, "campaign"):
+        try:
+            run_campaign(campaign, out, workers, progress)
+        except KeyboardInterrupt:
+            seeds = finished_seeds(campaign, out, preflight(campaign))
+            text = summarise(campaign, out, seeds) if seeds else None
+            raise CampaignInterrupted(out, len(seeds), campaign.runs, text) from None
+        return summarise(campaign, out)
+
+
+def save_figure(fig, path: pathlib.Path) -> None:
+    """``fig.savefig`` as PNG, atomically."""
+    atomic_write(path, lambda f: fig.savefig(f, format="png"))
 
 
 def finite_mean(values: np.ndarray) -> float:
@@ -65,19 +106,47 @@ def sign_rank(d: np.ndarray) -> tuple[int, int, str]:
     return above, below, f"{wilcoxon(nz).pvalue:.2g}"
 
 
-def summarise(campaign: Campaign, out: pathlib.Path) -> str:
-    """Write ``runs.csv``, ``summary.md`` and the plots; return the Markdown summary."""
-    runs = load_runs(campaign, out)
+def relative(difference: float, baseline: float) -> str:
+    """The relative column: ``difference / |baseline|`` in percent (``-`` for a zero or non-finite baseline).
+
+    Dividing by the baseline's magnitude keeps the sign of the difference: a return of -50 against a baseline of
+    -100 is +50 % (better), where ``difference / baseline`` would print -50 %.
+    """
+    if not baseline or not math.isfinite(baseline):
+        return "-"
+    return f"{100 * difference / abs(baseline):+.1f} %"
+
+
+def seed_span(seeds: Sequence[int]) -> str:
+    """``0..9`` for consecutive seeds, else the list."""
+    seeds = list(seeds)
+    if seeds and seeds == list(range(seeds[0], seeds[-1] + 1)):
+        return f"{seeds[0]}..{seeds[-1]}"
+    return ", ".join(map(str, seeds))
+
+
+def summarise(campaign: Campaign, out: pathlib.Path, seeds: Sequence[int] | None = None) -> str:
+    """Write ``runs.csv``, ``summary.md`` and the plots (each atomically); return the Markdown summary.
+
+    ``seeds``: the paired runs to summarise (default: every seed of the campaign; an interrupted campaign
+    summarises the seeds every scheme finished, and says so in the summary).
+    """
+    seeds = list(campaign.seeds() if seeds is None else seeds)
+    if not seeds:
+        raise ValueError(f"{out}: no paired run has finished yet: nothing to summarise")
+    runs = load_runs(campaign, out, seeds)
     per_run = {s: [run_metrics(r) for r in rs] for s, rs in runs.items()}
     metrics = {s: {m: np.array([r[m] for r in rs]) for m in METRICS} for s, rs in per_run.items()}
-    with (out / "runs.csv").open("w") as f:
-        f.write("scheme,seed," + ",".join(METRICS) + "\n")
-        for s in campaign.schemes:
-            for i, seed in enumerate(campaign.seeds()):
-                f.write(f"{s},{seed}," + ",".join(f"{metrics[s][m][i]:.17g}" for m in METRICS) + "\n")
+    table = ["scheme,seed," + ",".join(METRICS) + "\n"]
+    for s in campaign.schemes:
+        for i, seed in enumerate(seeds):
+            table.append(f"{s},{seed}," + ",".join(f"{metrics[s][m][i]:.17g}" for m in METRICS) + "\n")
+    atomic_write_text(out / "runs.csv", "".join(table))
     base = campaign.baseline
     lines = [f"# {campaign.title or campaign.env}", ""]
-    lines.append(f"{campaign.env}, {campaign.runs} paired runs (seeds {campaign.seed0}..{campaign.seeds()[-1]})")
+    if len(seeds) < campaign.runs:
+        lines += [f"**Interrupted: {len(seeds)} of {campaign.runs} paired runs finished; run again to resume.**", ""]
+    lines.append(f"{campaign.env}, {len(seeds)} paired runs (seeds {seed_span(seeds)})")
     if campaign.overrides:
         lines.append(f"overrides: {campaign.overrides}")
     if campaign.env_kwargs:
@@ -92,6 +161,7 @@ def summarise(campaign: Campaign, out: pathlib.Path) -> str:
             cells.append(f"{mean:.4g} ± {half:.2g}")
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
     lines += ["", f"## Paired differences against `{base}` (scheme - baseline, 95 % CI)", ""]
+    lines += ["relative = difference / |baseline mean| (positive: the scheme's value is higher)", ""]
     ref = campaign.reference
     head = "| scheme | metric | difference [95 % CI] | relative | CI excludes 0 | runs above / below | sign-rank p |"
     lines += [head + (" seed reports |" if ref else ""), "|" + " --- |" * (7 + bool(ref))]
@@ -102,7 +172,7 @@ def summarise(campaign: Campaign, out: pathlib.Path) -> str:
             d = metrics[s][m] - metrics[base][m]
             mean, half, _ = mean_ci(d)
             b, _, _ = mean_ci(metrics[base][m])  # the baseline's mean over its finite runs (nan: none)
-            rel = f"{100 * mean / b:+.1f} %" if b and math.isfinite(b) else "-"
+            rel = relative(mean, b)
             excl = "yes" if math.isfinite(half) and abs(mean) > half else "no"
             above, below, p = sign_rank(d)
             row = (
@@ -111,7 +181,7 @@ def summarise(campaign: Campaign, out: pathlib.Path) -> str:
             )
             lines.append(row + (f" {ref.get(m, '')} |" if ref else ""))
     text = "\n".join(lines) + "\n"
-    (out / "summary.md").write_text(text)
+    atomic_write_text(out / "summary.md", text)
     plot(campaign, runs, out)
     return text
 
@@ -142,11 +212,11 @@ def plot(campaign: Campaign, runs: dict[str, list[dict[str, np.ndarray]]], out: 
             ax.plot(scans, y, label=s)
         ax.set_xlabel("scan")
         ax.set_ylabel(ylabel)
-        ax.set_title(f"{ylabel}, mean over {campaign.runs} runs")
+        ax.set_title(f"{ylabel}, mean over {len(runs[campaign.schemes[0]])} runs")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
         fig.tight_layout()
-        fig.savefig(out / f"{name}.png")
+        save_figure(fig, out / f"{name}.png")
         plt.close(fig)
     multi = [s for s in campaign.schemes if sum(c.startswith("mu:") for c in runs[s][0]) > 1]
     fig, axes = plt.subplots(max(len(multi), 1), 1, figsize=(7, 2.6 * max(len(multi), 1)), dpi=110, squeeze=False)
@@ -163,5 +233,5 @@ def plot(campaign: Campaign, runs: dict[str, list[dict[str, np.ndarray]]], out: 
         ax.legend(fontsize=7, ncol=4)
     axes[-1, 0].set_xlabel("scan")
     fig.tight_layout()
-    fig.savefig(out / "model_probabilities.png")
+    save_figure(fig, out / "model_probabilities.png")
     plt.close(fig)

@@ -87,7 +87,7 @@ def test_a_changed_definition_does_not_resume(tmp_path):
     assert json.loads((tmp_path / "campaign.json").read_text())["overrides"] == SMALL
 
 
-def test_bad_campaigns_raise():
+def test_bad_campaigns_raise(capsys):
     with pytest.raises(ValueError, match="env='x'"):
         Campaign(env="x", schemes=("myopic",), baseline="myopic", runs=3)
     with pytest.raises(ValueError, match="runs=1"):
@@ -98,8 +98,9 @@ def test_bad_campaigns_raise():
         Campaign(env="uwb_env/UrbanWaveform-v1", schemes=("greedy",), baseline="greedy", runs=3)
     with pytest.raises(ValueError, match="baseline='random'"):
         Campaign(env="uwb_env/UrbanWaveform-v1", schemes=("myopic",), baseline="random", runs=3)
-    with pytest.raises(ValueError, match="--set 'n_scans'"):
+    with pytest.raises(SystemExit) as e:
         main(["--set", "n_scans", "--runs", "2"])
+    assert e.value.code == 2 and "--set 'n_scans'" in capsys.readouterr().err
 
 
 def test_command_line_prints_the_table(tmp_path, capsys):
