@@ -1,6 +1,6 @@
 """Schedulers: a small protocol and the open-loop and lookahead agents (SPEC.md agents/)."""
 
-from agents.schedulers import (
+from uwb_env.agents.schedulers import (
     Fixed,
     MultiStepLookahead,
     Myopic,

@@ -163,7 +163,7 @@ def make_scheduler(name: str) -> Scheduler:
     ``scripts/train.py`` or its model zip; needs the ``rl`` extra).
     """
     if name.startswith("rl:"):
-        from agents.rl.training import load_scheduler  # stable-baselines3 and torch only when asked for
+        from uwb_env.agents.rl.training import load_scheduler  # stable-baselines3 and torch only when asked for
 
         return load_scheduler(name[3:])
     if name in _NAMED:

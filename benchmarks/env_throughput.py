@@ -17,7 +17,7 @@ import time
 import gymnasium as gym
 
 import uwb_env  # noqa: F401
-from agents import make_scheduler, scheduler_names
+from uwb_env.agents import make_scheduler, scheduler_names
 
 
 def episode_seconds(env: gym.Env, agent, seed: int) -> tuple[int, float]:

@@ -8,7 +8,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import uwb_env  # noqa: F401  (registers the ids)
-from agents import Fixed, Myopic, Random, RoundRobin
+from uwb_env.agents import Fixed, Myopic, Random, RoundRobin
 from uwb_env.envs import ENV_IDS
 
 NO_CLUTTER_SWERLING_0 = {

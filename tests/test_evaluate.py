@@ -8,7 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from scripts.evaluate import Campaign, main, mean_ci, parse_overrides, run_campaign, run_metrics, run_path, summarise
+from uwb_env.agents.campaign import Campaign, run_campaign, run_path
+from uwb_env.agents.cli import evaluate_main as main
+from uwb_env.agents.cli import parse_overrides
+from uwb_env.agents.summary import mean_ci, run_metrics, summarise
 
 SMALL = {"n_scans": 12, "targets.1.birth_time_s": 1.0}
 
@@ -84,7 +87,7 @@ def test_a_changed_definition_does_not_resume(tmp_path):
     assert json.loads((tmp_path / "campaign.json").read_text())["overrides"] == SMALL
 
 
-def test_bad_campaigns_raise():
+def test_bad_campaigns_raise(capsys):
     with pytest.raises(ValueError, match="env='x'"):
         Campaign(env="x", schemes=("myopic",), baseline="myopic", runs=3)
     with pytest.raises(ValueError, match="runs=1"):
@@ -95,8 +98,9 @@ def test_bad_campaigns_raise():
         Campaign(env="uwb_env/UrbanWaveform-v1", schemes=("greedy",), baseline="greedy", runs=3)
     with pytest.raises(ValueError, match="baseline='random'"):
         Campaign(env="uwb_env/UrbanWaveform-v1", schemes=("myopic",), baseline="random", runs=3)
-    with pytest.raises(ValueError, match="--set 'n_scans'"):
+    with pytest.raises(SystemExit) as e:
         main(["--set", "n_scans", "--runs", "2"])
+    assert e.value.code == 2 and "--set 'n_scans'" in capsys.readouterr().err
 
 
 def test_command_line_prints_the_table(tmp_path, capsys):
@@ -121,7 +125,7 @@ def test_sign_rank_counts_and_p_value():
     Ten positive differences, distinct ranks: the exact null probability of rank sum 55 (the maximum) is 2^-10,
     two-sided 2 * 2^-10 = 0.00195.
     """
-    from scripts.evaluate import sign_rank
+    from uwb_env.agents.summary import sign_rank
 
     d = np.array([0.0, 0.0, *np.arange(1.0, 11.0)])
     assert sign_rank(d) == (10, 0, "0.002")

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import uwb_env  # noqa: F401  (registers the ids)
-from agents import MultiStepLookahead, Myopic, make_scheduler
+from uwb_env.agents import MultiStepLookahead, Myopic, make_scheduler
 from uwb_env.config import open_loop_tracker
 from uwb_env.lookahead import expected_posterior, lookahead_costs, position_trace, predict_combined, sequence_costs
 from uwb_env.tracking.kernels import kf_predict

@@ -7,7 +7,15 @@ import numpy as np
 import pytest
 import yaml
 
-from agents.rl import ALGORITHMS, PolicyScheduler, TrainConfig, latest_checkpoint, load_preset, load_scheduler, train
+from uwb_env.agents.rl import (
+    ALGORITHMS,
+    PolicyScheduler,
+    TrainConfig,
+    latest_checkpoint,
+    load_preset,
+    load_scheduler,
+    train,
+)
 from uwb_env.envs import ENV_IDS as REGISTERED
 
 ENV_IDS = ["uwb_env/UrbanWaveform-v1", "uwb_env/IndoorSensorSubset-v0", "uwb_env/IndoorJoint-v0"]
@@ -92,7 +100,7 @@ def test_presets_are_versioned_and_unknown_names_raise():
 
 
 def test_a_trained_agent_plays_in_a_paired_campaign(tmp_path):
-    from scripts.evaluate import Campaign, run_one
+    from uwb_env.agents.campaign import Campaign, run_one
 
     train(_cfg(tmp_path, ENV_IDS[0], "maskable-ppo", 128), progress=False)
     scheme = f"rl:{tmp_path / 'run'}"
@@ -107,7 +115,7 @@ def test_a_trained_agent_plays_in_a_paired_campaign(tmp_path):
 
 def test_a_parallel_campaign_with_a_trained_agent_finishes_and_matches_a_serial_one(tmp_path):
     """Workers with torch must not be forked from a parent that used it (they hang): a fork server is used."""
-    from scripts.evaluate import Campaign, load_runs, run_campaign
+    from uwb_env.agents.campaign import Campaign, load_runs, run_campaign
 
     train(_cfg(tmp_path, ENV_IDS[1], "ppo", 128), progress=False)
     scheme = f"rl:{tmp_path / 'run'}"
@@ -126,7 +134,7 @@ def test_a_parallel_campaign_with_a_trained_agent_finishes_and_matches_a_serial_
 def test_default_observation_is_normalised_on_the_scenarios_typical_range(env_id):
     """Two myopic episodes: every feature stays O(1) (measured max |x| <= 4.4) and no feature's scale is orders of
     magnitude beyond the others' (99th percentile of |x| per varying feature within 100x of their median)."""
-    from agents import make_scheduler
+    from uwb_env.agents import make_scheduler
 
     env = gym.make(env_id, include_lookahead=True)
     agent = make_scheduler("myopic")

@@ -133,7 +133,7 @@ def test_parametric_detection_probability_is_calibrated_on_the_signal_path(senso
     1200 scans per point (200 per pair): binomial std <= 0.0144; the report's largest difference over the whole
     grid is 0.034, so we allow 0.05 + 3 std here.
     """
-    from scripts.calibrate_parametric import measure, parametric_pd
+    from uwb_env.agents.studies.calibrate_parametric import measure, parametric_pd
 
     pfa = CFG.sensing.false_alarm_probability
     kappa = CFG.sensing.clutter_residue_ratio

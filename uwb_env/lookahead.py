@@ -161,12 +161,13 @@ def expected_posterior(
     return Pa
 
 
-
 def check_q2(q2: float | str) -> None:
     """Validate the information-reduction option: a number in (0, 1] or ``"pda"``."""
     if isinstance(q2, str):
         if q2 != "pda":
             raise ValueError(f"q2={q2!r}: must be a number in (0, 1] or 'pda'")
+    elif isinstance(q2, (bool, np.bool_)) or not isinstance(q2, (int, float, np.integer, np.floating)):
+        raise TypeError(f"q2={q2!r}: must be a number in (0, 1] or 'pda' (got {type(q2).__name__})")
     elif not 0.0 < float(q2) <= 1.0:
         raise ValueError(f"q2={q2!r}: must be a number in (0, 1] or 'pda'")
 

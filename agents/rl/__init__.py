@@ -1,6 +1,6 @@
 """Reinforcement-learning schedulers (stable-baselines3 / sb3-contrib): training, presets, trained-model agents."""
 
-from agents.rl.training import (
+from uwb_env.agents.rl.training import (
     ALGORITHMS,
     PolicyScheduler,
     SchedulerEvalCallback,

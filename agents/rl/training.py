@@ -44,7 +44,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv,
 from tqdm.auto import tqdm
 
 import uwb_env  # noqa: F401  (registers the env ids)
-from agents.schedulers import make_scheduler
+from uwb_env.agents.schedulers import make_scheduler
 
 ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "a2c": A2C, "dqn": DQN, "maskable-ppo": MaskablePPO}
 EVAL_SEED0 = 1_000_000  # evaluation seeds start here; training seeds are seed .. seed + n_envs - 1 (and resets)
@@ -56,7 +56,7 @@ def load_preset(env_id: str, algo: str) -> dict[str, Any]:
     if algo not in ALGORITHMS:
         raise ValueError(f"algo={algo!r}: must be one of {sorted(ALGORITHMS)}")
     name = env_id.split("/")[-1] + ".yaml"
-    path = resources.files("agents.rl") / "presets" / name
+    path = resources.files("uwb_env.agents.rl") / "presets" / name
     if not path.is_file():
         raise ValueError(f"env_id={env_id!r}: no preset agents/rl/presets/{name}")
     data = yaml.safe_load(path.read_text())

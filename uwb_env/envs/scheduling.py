@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections import OrderedDict
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -57,6 +58,68 @@ FIDELITIES = ("parametric", "signal")
 OBS_BOUND = 10.0
 """Observation bounds: every feature is O(1) on the scenario (tracks live inside the area, deleted beyond 50 m std);
 a value outside raises rather than being clipped."""
+
+
+MAX_SLOTS = 1024
+"""Most track slots in the observation (the tracker never holds more than a few hundred tracks)."""
+
+
+# ------------------------------------------------------------------------------------------- keyword checks
+# Every keyword is checked for its type as well as its value, with no coercion: a bool is a ``bool`` (or numpy
+# bool), never the string "no" or the int 1; an int is an ``int`` (or numpy integer), never "8" or 8.0; a number is
+# an int or float (numpy's too), never a bool or a string. Errors name the keyword, the value and what is allowed.
+def _is_int(value: object) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
+
+
+def check_bool(name: str, value: object) -> None:
+    """Raise ``TypeError`` unless ``value`` is True or False."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name}={value!r}: must be True or False (a bool, got {type(value).__name__})")
+
+
+def check_int(name: str, value: object, lo: int, hi: int | None) -> None:
+    """Raise unless ``value`` is an integer in ``[lo, hi]`` (``hi`` None: no upper bound)."""
+    allowed = f"an integer in [{lo}, {hi}]" if hi is not None else f"an integer >= {lo}"
+    if not _is_int(value):
+        raise TypeError(f"{name}={value!r}: must be {allowed} (got {type(value).__name__})")
+    if value < lo or (hi is not None and value > hi):  # type: ignore[operator]
+        raise ValueError(f"{name}={value!r}: must be {allowed}")
+
+
+def check_real(name: str, value: object, lo: float, *, closed: bool) -> None:
+    """Raise unless ``value`` is a finite number ``>= lo`` (``closed``) or ``> lo``."""
+    allowed = f"a finite number {'>=' if closed else '>'} {lo}"
+    if not (_is_int(value) or isinstance(value, (float, np.floating))):
+        raise TypeError(f"{name}={value!r}: must be {allowed} (got {type(value).__name__})")
+    v = float(value)  # type: ignore[arg-type]
+    if not math.isfinite(v) or v < lo or (not closed and v == lo):
+        raise ValueError(f"{name}={value!r}: must be {allowed}")
+
+
+def check_choice(name: str, value: object, allowed: tuple[str, ...]) -> None:
+    """Raise unless ``value`` is one of the strings ``allowed``."""
+    if not isinstance(value, str) or value not in allowed:
+        raise (ValueError if isinstance(value, str) else TypeError)(f"{name}={value!r}: must be one of {allowed}")
+
+
+def _node_mask(name: str, value: object, names: list[str], what: str) -> BoolArray:
+    """``(len(names),)`` the nodes listed in ``value`` (a tuple or list of indices or names), checked."""
+    allowed = f"a tuple of {what} indices in [0, {len(names) - 1}] or names {names}, each listed once"
+    if not isinstance(value, (tuple, list)):
+        raise TypeError(f"{name}={value!r}: must be {allowed}")
+    mask = np.zeros(len(names), dtype=bool)
+    for item in value:
+        if isinstance(item, str) and item in names:
+            i = names.index(item)
+        elif _is_int(item) and 0 <= item < len(names):  # type: ignore[operator]
+            i = int(item)  # type: ignore[call-overload]
+        else:
+            raise ValueError(f"{name}={value!r}: {item!r} is not allowed; must be {allowed}")
+        if mask[i]:
+            raise ValueError(f"{name}={value!r}: {item!r} listed twice; must be {allowed}")
+        mask[i] = True
+    return mask
 
 
 def enumerate_plans(
@@ -119,46 +182,69 @@ class UWBSchedulingEnv(gym.Env):
         energy_cost_per_j: float = 0.0,
         receiver_warmup: bool = False,
         lookahead_q2: float | str = 1.0,
+        out_of_service_rx: tuple[int | str, ...] = (),
+        unavailable_waveforms: tuple[int | str, ...] = (),
         render_mode: str | None = None,
         **overrides: Any,
     ) -> None:
-        if fidelity is not None and fidelity not in FIDELITIES:
-            raise ValueError(f"fidelity={fidelity!r}: must be one of {FIDELITIES}")
-        if observation not in ("box", "dict"):
-            raise ValueError(f"observation={observation!r}: must be 'box' or 'dict'")
-        if render_mode not in (None, *self.metadata["render_modes"]):
-            raise ValueError(f"render_mode={render_mode!r}: must be None or one of {self.metadata['render_modes']}")
-        if n_slots < 1:
-            raise ValueError(f"n_slots={n_slots}: must be >= 1")
-        for name, value in (
-            ("missed_target_penalty_m2", missed_target_penalty_m2),
-            ("cover_gate_m", cover_gate_m),
-            ("energy_cost_per_j", energy_cost_per_j),
-        ):
-            if not (math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name}={value}: must be finite and >= 0")
+        if not isinstance(scenario, (str, ScenarioConfig)):
+            raise TypeError(
+                f"scenario={scenario!r}: must be a scenario name (one of {scenarios.names()}) or a ScenarioConfig"
+            )
+        check_choice("action_kind", action_kind, ACTION_KINDS)
+        if fidelity is not None:
+            check_choice("fidelity", fidelity, FIDELITIES)
+        check_choice("observation", observation, ("box", "dict"))
+        if render_mode is not None:
+            check_choice("render_mode", render_mode, tuple(self.metadata["render_modes"]))
+        check_int("n_slots", n_slots, 1, MAX_SLOTS)
+        check_int("subset_size", subset_size, 1, None)
+        check_int("fixed_waveform", fixed_waveform, 0, None)
+        check_bool("include_lookahead", include_lookahead)
+        check_bool("receiver_warmup", receiver_warmup)
+        check_real("missed_target_penalty_m2", missed_target_penalty_m2, 0.0, closed=True)
+        check_real("cover_gate_m", cover_gate_m, 0.0, closed=False)
+        check_real("energy_cost_per_j", energy_cost_per_j, 0.0, closed=True)
+        check_q2(lookahead_q2)
         cfg = scenarios.get(scenario) if isinstance(scenario, str) else scenario
         if fidelity is not None:
             overrides = {"sensing.fidelity": fidelity, **overrides}
         self.cfg = apply_overrides(cfg, overrides) if overrides else cfg
+        self._dead_rx = _node_mask(
+            "out_of_service_rx", out_of_service_rx, [r.name for r in self.cfg.receivers], "receiver"
+        )
+        self._dead_w = _node_mask(
+            "unavailable_waveforms", unavailable_waveforms, [w.name for w in self.cfg.waveforms], "waveform"
+        )
         self.sim = Simulator(self.cfg)
         sensor = self.sim.sensor
-        self.plans = enumerate_plans(
-            action_kind, len(sensor.library), sensor.n_tx, sensor.n_rx, subset_size, fixed_waveform
+        plans = enumerate_plans(action_kind, len(sensor.library), sensor.n_tx, sensor.n_rx, subset_size, fixed_waveform)
+        if action_kind == "waveform":  # every in-service receiver listens; a receiver out of service cannot
+            plans = [ScanPlan(p.waveform, p.active_rx & ~self._dead_rx) for p in plans]
+            if self._dead_rx.all():
+                raise ValueError(
+                    f"out_of_service_rx={out_of_service_rx!r}: must leave at least one receiver in service"
+                )
+        self.plans = plans
+        self._mask = np.array(
+            [not (p.active_rx & self._dead_rx).any() and not self._dead_w[p.waveform].any() for p in plans]
         )
+        if not self._mask.any():
+            raise ValueError(
+                f"out_of_service_rx={out_of_service_rx!r}, unavailable_waveforms={unavailable_waveforms!r}: "
+                f"must leave at least one valid plan of action_kind={action_kind!r}"
+            )
         self.action_kind = action_kind
         self.n_slots, self.obs_kind, self.include_lookahead = n_slots, observation, include_lookahead
-        self.missed_target_penalty_m2 = missed_target_penalty_m2
-        self.cover_gate_m = cover_gate_m
-        self.energy_cost_per_j = energy_cost_per_j
-        if not isinstance(receiver_warmup, bool):
-            raise ValueError(f"receiver_warmup={receiver_warmup!r}: must be True or False")
-        self.receiver_warmup = receiver_warmup
-        check_q2(lookahead_q2)
+        self.missed_target_penalty_m2 = float(missed_target_penalty_m2)
+        self.cover_gate_m = float(cover_gate_m)
+        self.energy_cost_per_j = float(energy_cost_per_j)
+        self.receiver_warmup = bool(receiver_warmup)
         self.lookahead_q2 = lookahead_q2
         self.render_mode = render_mode
         self.action_space = spaces.Discrete(len(self.plans))
         self.n_models = self.sim.tracker.r
+        self._n_targets = len(self.cfg.targets)  # the width of info["position_errors_m"]
         self.slot_features = 10 + self.n_models
         lay = sensor.layout
         x0, x1, y0, y1 = lay.area
@@ -185,13 +271,14 @@ class UWBSchedulingEnv(gym.Env):
         if receiver_warmup:
             parts["ready_receivers"] = spaces.Box(0.0, 1.0, (sensor.n_rx,), np.float32)
         self._parts = parts
-        if observation == "dict":
-            self.observation_space = spaces.Dict(parts)
+        if observation == "dict":  # in the Box's order (a plain dict would be sorted by key): flatten() == the Box
+            self.observation_space = spaces.Dict(OrderedDict(parts))
         else:
             size = sum(int(np.prod(s.shape)) for s in parts.values())
             self.observation_space = spaces.Box(-OBS_BOUND, OBS_BOUND, (size,), np.float32)
         self._previous: int | None = None
         self._last: ScanResult | None = None
+        self._started = False
         self._ready_rx = np.ones(sensor.n_rx, dtype=bool)
 
     # ------------------------------------------------------------------------------------------------- gym API
@@ -204,10 +291,20 @@ class UWBSchedulingEnv(gym.Env):
         self._ready_rx = np.ones(self.sim.sensor.n_rx, dtype=bool)
         self._previous = None
         self._last = None
-        return self._observation(), {"scan_index": 0}
+        self._started = True
+        if self.render_mode == "human":
+            self.render()
+        return self._observation(), self._reset_info()
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
-        """Sense and track the next scan with plan ``action``."""
+        """Sense and track the next scan with plan ``action``.
+
+        Returns ``terminated=False`` always (no state of the scene ends an episode) and ``truncated=True`` at the
+        scenario's fixed horizon (``n_scans``): time is not in the observation, so the end is a time limit
+        (Gymnasium's convention; value bootstrapping continues through it).
+        """
+        if not self._started:
+            raise RuntimeError("step() before reset(): call reset() to start an episode")
         a = self._check_action(action)
         if self.sim.done:
             raise RuntimeError("step() after the episode ended: call reset()")
@@ -217,11 +314,26 @@ class UWBSchedulingEnv(gym.Env):
             self._ready_rx = plan.active_rx.copy()
         self._previous, self._last = a, res
         reward, info = self._reward_and_info(res, a)
+        if self.render_mode == "human":
+            self.render()
         return self._observation(), reward, self.sim.done, False, info
 
-    def action_masks(self) -> np.ndarray:
-        """``(n_actions,)`` which actions are valid now (all enumerated plans are)."""
-        return np.ones(len(self.plans), dtype=bool)
+    def action_masks(self) -> BoolArray:
+        """``(n_actions,)`` which actions are valid (for masked policies: sb3-contrib's MaskablePPO, RLlib).
+
+        False for a plan that needs a receiver out of service (``out_of_service_rx``) or sends a waveform that is
+        not available (``unavailable_waveforms``); all True without either. Stepping a masked action raises
+        ``ValueError``.
+        """
+        return self._mask.copy()
+
+    def describe_action(self, action: int) -> str:
+        """The plan of ``action`` in words: the waveform sent and the listening receivers, by their names."""
+        a = self._check_action(action, masked_ok=True)
+        plan = self.plans[a]
+        names = sorted({self.cfg.waveforms[int(w)].name for w in plan.waveform})
+        rx = [self.cfg.receivers[i].name for i in np.flatnonzero(plan.active_rx)]
+        return f"action {a}: waveform {', '.join(names)}; receivers {', '.join(rx)}"
 
     @property
     def ready_rx(self) -> BoolArray | None:
@@ -248,11 +360,24 @@ class UWBSchedulingEnv(gym.Env):
         return self.sim.sensor, self.sim.tracker, self.plans, k * self.cfg.sensing.scan_period_s, k
 
     # ----------------------------------------------------------------------------------------------- internals
-    def _check_action(self, action: Any) -> int:
+    def _check_action(self, action: Any, *, masked_ok: bool = False) -> int:
+        """The action as an int; raises unless it is an integer scalar in range and (unless ``masked_ok``) valid."""
         a = np.asarray(action)
         if a.shape != () or a.dtype.kind not in "iu" or not 0 <= int(a) < len(self.plans):
             raise ValueError(f"action={action!r}: must be an integer in [0, {len(self.plans) - 1}]")
-        return int(a)
+        a_int = int(a)
+        if not masked_ok and not self._mask[a_int]:
+            plan = self.plans[a_int]
+            dead = [self.cfg.receivers[i].name for i in np.flatnonzero(plan.active_rx & self._dead_rx)]
+            gone = sorted({self.cfg.waveforms[int(w)].name for w in plan.waveform if self._dead_w[int(w)]})
+            why = "; ".join(
+                [f"receiver(s) {dead} out of service"] * bool(dead) + [f"waveform(s) {gone} unavailable"] * bool(gone)
+            )
+            raise ValueError(
+                f"action={a_int}: masked ({why}); must be one of the valid actions "
+                f"{np.flatnonzero(self._mask).tolist()} (action_masks())"
+            )
+        return a_int
 
     def _reward_and_info(self, res: ScanResult, action: int) -> tuple[float, dict[str, Any]]:
         t = res.tracks
@@ -269,21 +394,46 @@ class UWBSchedulingEnv(gym.Env):
         reward = -mean_trace - self.missed_target_penalty_m2 * missed - self.energy_cost_per_j * energy
         if not math.isfinite(reward):
             raise FloatingPointError(f"reward is {reward} at scan {res.scan_index}: mean trace {mean_trace}")
+        padded = np.zeros(self._n_targets)
+        padded[: errors.size] = errors
         info = {
-            "scan_index": res.scan_index,
+            "scan_index": int(res.scan_index),
             "covariance_trace": mean_trace,
             "target_covariance_trace": float(trace[ti].sum()) / ti.size if ti.size else 0.0,
-            "missed_targets": missed,
+            "missed_targets": int(missed),
             "missed_penalty": self.missed_target_penalty_m2 * missed,
             "energy_j": energy,
             "energy_cost": self.energy_cost_per_j * energy,
-            "position_errors_m": errors,
-            "ospa_m": ospa_m,
-            "confirmed_tracks": n_conf,
-            "false_tracks": n_conf - ti.size,
+            "position_errors_m": padded,
+            "position_errors_count": int(errors.size),
+            "ospa_m": float(ospa_m),
+            "confirmed_tracks": int(n_conf),
+            "false_tracks": int(n_conf - ti.size),
             "model_probabilities": mu_sum / n_conf if n_conf else mu_sum,
         }
         return float(reward), info
+
+    def _reset_info(self) -> dict[str, Any]:
+        """The info of ``reset``: the step's keys and shapes (vector envs stack them), no scan played yet.
+
+        Every count, cost and error is 0 and the model probabilities are zeros (no confirmed track), as in a
+        step's info without tracks; ``scan_index`` is 0.
+        """
+        return {
+            "scan_index": 0,
+            "covariance_trace": 0.0,
+            "target_covariance_trace": 0.0,
+            "missed_targets": 0,
+            "missed_penalty": 0.0,
+            "energy_j": 0.0,
+            "energy_cost": 0.0,
+            "position_errors_m": np.zeros(self._n_targets),
+            "position_errors_count": 0,
+            "ospa_m": 0.0,
+            "confirmed_tracks": 0,
+            "false_tracks": 0,
+            "model_probabilities": np.zeros(self.n_models),
+        }
 
     def _observation(self) -> Any:
         tracks = self.sim.tracker.tracks
@@ -313,7 +463,11 @@ class UWBSchedulingEnv(gym.Env):
 
     # ---------------------------------------------------------------------------------------------- rendering
     def render(self) -> np.ndarray | None:
-        """The scene, truth, the scan's detections, confirmed tracks with 2-sigma ellipses and ids, the chosen plan."""
+        """The scene, truth, the scan's detections, confirmed tracks with 2-sigma ellipses and ids, the chosen plan.
+
+        ``rgb_array``: returns the frame ``(H, W, 3)`` uint8. ``human``: shows it (also after every ``reset`` and
+        ``step``, Gymnasium's convention) and returns None. The title names the plan (``describe_action``).
+        """
         if self.render_mode is None:
             return None
         import matplotlib
@@ -344,11 +498,14 @@ class UWBSchedulingEnv(gym.Env):
                 ell = (V * (2.0 * np.sqrt(np.maximum(w, 0.0)))) @ np.stack([np.cos(angle), np.sin(angle)])
                 ax.plot(x[i, 0] + ell[0], x[i, 2] + ell[1], "b-", lw=1)
                 ax.text(x[i, 0], x[i, 2], f" {tracks.ids[i]}", color="b", fontsize=8)
-        ax.set_title(f"scan {k}, action {self._previous}")
-        fig.canvas.draw()
-        img = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
-        if self.render_mode == "human":
+        plan = "no scan yet" if self._previous is None else self.describe_action(self._previous)
+        ax.set_title(f"scan {k}: {plan}", fontsize=9, wrap=True)
+        if self.render_mode == "human":  # Gymnasium: drawn on screen, nothing returned
             plt.show(block=False)
             plt.pause(1.0 / self.metadata["render_fps"])
+            plt.close(fig)
+            return None
+        fig.canvas.draw()
+        img = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
         plt.close(fig)
         return img
