@@ -1,6 +1,7 @@
 """Schedulers: a small protocol and the open-loop and lookahead agents (SPEC.md agents/)."""
 
 from uwb_env.agents.schedulers import (
+    DetectionConstrainedMyopic,
     Fixed,
     MultiStepLookahead,
     Myopic,
@@ -13,6 +14,7 @@ from uwb_env.agents.schedulers import (
 )
 
 __all__ = [
+    "DetectionConstrainedMyopic",
     "Fixed",
     "MultiStepLookahead",
     "Myopic",

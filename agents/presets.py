@@ -29,4 +29,14 @@ PRESETS: dict[str, dict[str, Any]] = {
             "removed; spatial diversity (-> one receiver) is the same campaign with --set pairs=[[0,0]]"
         ),
     },
+    "wideband": {
+        "env": "uwb_env/UrbanWideband-v0",
+        "schemes": ["myopic-pd", "myopic", "lookahead-3", "round-robin", "random"] + [f"fixed-{w}" for w in range(8)],
+        "baseline": "myopic-pd",
+        "reference": {},
+        "title": (
+            "Waveform schedulers on urban-intersection-wideband (the seed's chirps plus 160 MHz ones: bandwidth "
+            "against range migration)"
+        ),
+    },
 }

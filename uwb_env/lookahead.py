@@ -271,6 +271,54 @@ def lookahead_costs(
     return position_trace(expected_posterior(x, P, sensor, tracker, plans, q2, delivering)).sum(axis=1) / x.shape[0]
 
 
+def detection_probabilities(
+    sensor: ParametricSensor, tracker: Tracker, plans: Sequence[ScanPlan], time_s: float, scan_index: int
+) -> FloatArray | None:
+    """Expected Pd ``(A, N, Q)`` of the N confirmed tracks at the Q formed pairs under each plan (0: pair unused).
+
+    The sensor model's Pd at each track's predicted position and velocity (Doppler notch and range migration
+    included, ``ParametricSensor.expected_measurements``) for the assumed RCS, capped like the tracker's. ``None``
+    without a confirmed track. Pure.
+    """
+    confirmed = tracker.tracks.confirmed
+    if not confirmed.any():
+        return None
+    x, _, _, _ = tracker.predicted_estimates(time_s, scan_index, confirmed)
+    cfg, table = tracker.cfg, _plan_table(plans)
+    pd = np.zeros((len(plans), x.shape[0], sensor.pairs.shape[0]))
+    for q, (tx, rx) in enumerate(sensor.pairs.tolist()):
+        used, sent, which, _ = table.pair_waveforms(tx, rx)
+        if not used.any():
+            continue
+        p, _ = sensor.expected_measurements(
+            tx, rx, x[:, 0:3:2], sent, cfg.assumed_rcs_m2, cfg.assumed_swerling, velocities=x[:, 1:4:2]
+        )
+        pd[used, :, q] = np.minimum(p[which], cfg.max_detection_probability)
+    return pd
+
+
+def search_information(sensor: ParametricSensor, plans: Sequence[ScanPlan], max_range_rate: float) -> FloatArray:
+    """``(A,)`` range information a new target's detections would bring under each plan (search scans).
+
+    Sum over the plan's formed pairs (tx sends w, rx listens) of the radar constant (energy, gains, noise) times the
+    waveform's mean range-migration gain over range-rates uniform in +-``max_range_rate`` (the tracker's initiation
+    prior) over its range variance at 10 dB: E[SNR] / var(r) up to the target's unknown RCS and range. This is what
+    sets the two-ellipse initiation's accuracy (and its cross-range, with receivers close together). Pure.
+    """
+    model = getattr(sensor, "model", sensor)  # a signal sensor's parametric model (sensing.signal.model_hooks)
+    lib = model.library.waveforms
+    rdot = np.linspace(-max_range_rate, max_range_rate, 41)
+    per_snr = np.array([float(w.covariance(np.full(1, 10.0))[0][0, 0]) * 10.0 for w in lib])  # var(r) x SNR
+    walk = model.migration_gain(np.arange(len(lib))[:, None], rdot[None]).mean(axis=1)  # (W,)
+    table = _plan_table(plans)
+    info = np.zeros(len(plans))
+    for tx, rx in model.pairs.tolist():
+        used, _, _, _ = table.pair_waveforms(tx, rx)
+        w = table.waveforms[used, tx]
+        info[used] += model.radar_constant[w, tx, rx] * walk[w] / per_snr[w]
+    return info
+
+
 class _PlanTable:
     """What the lookahead reads of a plan list, computed once per list (plans are read-only once enumerated).
 

@@ -4,6 +4,7 @@ from uwb_env.envs.scheduling import ACTION_KINDS, UWBSchedulingEnv, enumerate_pl
 
 ENV_IDS = {
     "uwb_env/UrbanWaveform-v1": {"scenario": "urban-intersection", "action_kind": "waveform"},
+    "uwb_env/UrbanWideband-v0": {"scenario": "urban-intersection-wideband", "action_kind": "waveform"},
     "uwb_env/IndoorSensorSubset-v0": {"scenario": "indoor-rsn", "action_kind": "subset", "subset_size": 3},
     "uwb_env/IndoorJoint-v0": {"scenario": "indoor-rsn", "action_kind": "joint", "subset_size": 3},
     "uwb_env/IndoorSubsetWarmup-v0": {
@@ -14,6 +15,10 @@ ENV_IDS = {
     },
 }
 """Registered ids and their default keyword arguments (``gymnasium.make(id, **kwargs)`` overrides them).
+
+``UrbanWideband-v0`` adds two 160 MHz chirps to seed 003's library (``Discrete(8)``): range accuracy against the
+range migration of fast vehicles, a trade-off that depends on each track's range-rate
+(``uwb_env.scenarios.urban_intersection``).
 
 ``IndoorSubsetWarmup-v0`` is the scenario where one-step lookahead is short-sighted (receiver warm-up,
 ``uwb_env.envs.scheduling``).

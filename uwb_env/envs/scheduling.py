@@ -45,7 +45,7 @@ from gymnasium import spaces
 from uwb_env import scenarios
 from uwb_env.config import ScenarioConfig, apply_overrides
 from uwb_env.envs.features import track_features
-from uwb_env.lookahead import check_q2, lookahead_costs, sequence_costs
+from uwb_env.lookahead import check_q2, detection_probabilities, lookahead_costs, search_information, sequence_costs
 from uwb_env.metrics import cover_summary
 from uwb_env.sensing.records import ScanPlan
 from uwb_env.sim import ScanResult, Simulator
@@ -343,6 +343,21 @@ class UWBSchedulingEnv(gym.Env):
     def lookahead_costs(self) -> FloatArray:
         """Expected mean position-covariance trace [m^2] after the next scan for every action (pure)."""
         return lookahead_costs(*self._next_scan(), q2=self.lookahead_q2, ready_rx=self.ready_rx)
+
+    def detection_probabilities(self) -> FloatArray | None:
+        """``(A, N, Q)`` expected Pd of the confirmed tracks at each formed pair under each action (pure).
+
+        None without a confirmed track; ``uwb_env.lookahead.detection_probabilities``.
+        """
+        return detection_probabilities(*self._next_scan())
+
+    def search_information(self) -> FloatArray:
+        """``(A,)`` range information a new target's detections would bring under each action (pure; search scans).
+
+        ``uwb_env.lookahead.search_information`` with the tracker's initiation range-rate prior (+-2 v_max).
+        """
+        sensor, _, plans, _, _ = self._next_scan()
+        return search_information(sensor, plans, 2.0 * self.cfg.tracker.max_speed_mps)
 
     def sequence_costs(self, depth: int, beam: int | None = None, discount: float = 1.0) -> FloatArray:
         """``(A,)`` the cheapest expected d-scan cost of the plan sequences starting with each action (pure).
