@@ -77,16 +77,20 @@ def test_lookahead_costs_are_pure():
 
 def test_lookahead_matches_the_realised_cost_without_clutter_and_with_steady_snr():
     """No clutter, non-fluctuating targets: the expected trace after a scan is the realised one, up to the
-    linearisation of the second receiver's update and Pd < 1 (median within 5 %, 90 % of scans within 15 %)."""
+    linearisation of the second receiver's update and Pd < 1 (median within 5 %, 90 % of scans within 15 %).
+
+    Pooled over four episodes: one episode's 90th percentile is its ~13th worst scan, and the scans around a second
+    track's confirmation (~10 in a row) make it swing between 0.09 and 0.17 from episode to episode."""
     env = gym.make("uwb_env/UrbanWaveform-v1", **NO_CLUTTER_SWERLING_0).unwrapped
-    env.reset(seed=1)
     rel = []
-    for k in range(140):
-        costs = env.lookahead_costs()
-        _, _, _, _, info = env.step(k % 4)
-        if costs[k % 4] > 0 and info["confirmed_tracks"] > 0:
-            rel.append(abs(costs[k % 4] / info["covariance_trace"] - 1.0))
-    assert len(rel) > 100
+    for seed in range(1, 5):
+        env.reset(seed=seed)
+        for k in range(140):
+            costs = env.lookahead_costs()
+            _, _, _, _, info = env.step(k % 4)
+            if costs[k % 4] > 0 and info["confirmed_tracks"] > 0:
+                rel.append(abs(costs[k % 4] / info["covariance_trace"] - 1.0))
+    assert len(rel) > 400
     assert np.median(rel) < 0.05
     assert np.percentile(rel, 90) < 0.15
 

@@ -307,3 +307,22 @@ def test_range_migration_gain_hand_values_and_limits():
     assert range_migration_gain(30.0, 0.6, 0.01, 1) == 1.0  # one pulse: nothing to sum
     g = range_migration_gain(np.array([-20.0, 20.0]), 0.6, np.array([[0.01], [0.007]]), 25)
     assert g.shape == (2, 2) and g[0, 0] == g[0, 1] and g[1, 0] > g[0, 0]  # even in rdot; a shorter PRI walks less
+
+
+def test_range_migration_accuracy_hand_values_and_continuous_limit():
+    """B = 3 by hand: d = (-a, 0, a), u = a^2 / (4 sigma^2); c_range = [1 + 2 e^-u (1 - 2u)] / 3,
+    c_rate = e^-u (the edge pulses carry all of sum b^2), gain = [(1 + 2 e^-u) / 3]^2, walk = a. Many pulses:
+    c_range -> exp(-D^2 / (4 sigma^2)) (the mean of d/dx [x g(x)] over the walk)."""
+    from uwb_env.waveforms.chirp import range_migration_accuracy, range_migration_gain
+
+    sigma, pri, rdot = 0.5, 0.01, 60.0  # a = 0.6 m, u = 0.36
+    u = 0.36
+    g, c_r, c_d, walk = range_migration_accuracy(rdot, sigma, pri, 3)
+    assert c_r == pytest.approx((1 + 2 * math.exp(-u) * (1 - 2 * u)) / 3)
+    assert c_d == pytest.approx(math.exp(-u))
+    assert g == pytest.approx(((1 + 2 * math.exp(-u)) / 3) ** 2)
+    assert g == pytest.approx(range_migration_gain(rdot, sigma, pri, 3))
+    assert walk == pytest.approx(0.6)
+    assert range_migration_accuracy(0.0, sigma, pri, 25)[:3] == (1.0, 1.0, 1.0)
+    _, c_r, _, walk = range_migration_accuracy(10.0, 0.6, 0.01, 2001)
+    assert c_r == pytest.approx(math.exp(-(walk**2) / (4 * 0.6**2)), rel=1e-3)

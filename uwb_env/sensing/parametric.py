@@ -70,6 +70,7 @@ from uwb_env.sensing.records import Detections, ScanPlan
 from uwb_env.typing import BoolArray, FloatArray, IntArray
 from uwb_env.units import dbm_to_watts
 from uwb_env.waveforms.chirp import fold_periodic as fold_range_rate  # range-rate modulo lambda / T1
+from uwb_env.waveforms.chirp import range_migration_accuracy
 from uwb_env.waveforms.library import Waveform, WaveformLibrary
 
 _RESIDUE_NODES = 24  # Gauss-Laguerre nodes of the residue-level average (1e-4 in Pd: tests/unit/test_parametric.py)
@@ -153,7 +154,9 @@ def receiver_beams(
 
 
 def _columns(m: int) -> dict[str, int]:
-    return {"pair": 0, "z": 1, "az": 1 + m, "snr": 2 + m, "origin": 3 + m, "rho": 4 + m, "az_var": 5 + m, "n": 6 + m}
+    cols = {"pair": 0, "z": 1, "az": 1 + m, "snr": 2 + m, "origin": 3 + m, "rho": 4 + m, "az_var": 5 + m}
+    # walk_r, walk_d: variance factors of range and range-rate from the range walk (target rows; 0 elsewhere: 1)
+    return {**cols, "walk_r": 6 + m, "walk_d": 7 + m, "n": 8 + m}
 
 
 @dataclass(frozen=True, slots=True)
@@ -166,9 +169,9 @@ class EpisodeSensing:
 
     Attributes:
         geometry: the truth-dependent geometry.
-        target_rows: ``(W, S, T, R, K, 6 + m)`` every possible target detection in the row layout above.
+        target_rows: ``(W, S, T, R, K, 8 + m)`` every possible target detection in the row layout above.
         target_hit: ``(W, S, T, R, K)`` the square-law decision |sqrt(SNR) + n|^2 > V_T (False where not covered).
-        clutter_rows: ``(W, N, 6 + m)`` the false alarms that fall in their pair's gate, sorted by scan then pair.
+        clutter_rows: ``(W, N, 8 + m)`` the false alarms that fall in their pair's gate, sorted by scan then pair.
         clutter_tx, clutter_rx: ``(N,)`` their nodes.
         clutter_start: ``(S + 1,)`` offsets of each scan's false alarms.
     """
@@ -331,6 +334,30 @@ class ParametricSensor:
         offsets = np.where(np.arange(n.max())[None, :] < n[:, None], b, np.nan)
         scale = np.array([w.config.pri_s / (2.0 * w.range_spread_m) for w in wfs])
         return scale, offsets
+
+    def walk_factors(self, w: IntArray, range_rate: FloatArray, var0: FloatArray) -> FloatArray:
+        """``(..., 2)`` factors of the range and range-rate variances from the range walk across each train.
+
+        ``w`` and ``range_rate`` [m/s] broadcast to the rows' shape; ``var0`` ``(..., 2)`` the CRLB at the echo's
+        SNR, which already carries the walk's peak loss G (:meth:`migration_gain`): the unwalked bound is G var0.
+        ``uwb_env.waveforms.chirp.range_migration_accuracy``: G var0 / c^2 to first order, capped by G var0 + D^2 / 3
+        in range (the estimate wanders over the walk D) and by a uniform error over the range-rate period (P^2 / 12).
+        """
+        w = np.asarray(w, dtype=np.int64)
+        rdot = np.broadcast_to(np.asarray(range_rate, dtype=float), w.shape)
+        f = np.ones((*w.shape, 2))
+        if self._migration is None:
+            return f
+        for v in np.unique(w).tolist():  # the library: a small fixed set
+            sel = w == v
+            wf = self.library[v]
+            c = wf.config
+            g, c_r, c_d, walk = range_migration_accuracy(rdot[sel], wf.range_spread_m, c.pri_s, c.n_pulses)
+            v0 = var0[sel]
+            f[sel, 0] = np.minimum(g / np.maximum(c_r, 1e-6) ** 2, g + walk**2 / (3.0 * v0[..., 0]))
+            cap = wf.range_rate_ambiguity_mps**2 / (12.0 * v0[..., 1])
+            f[sel, 1] = np.clip(g / np.maximum(c_d, 1e-6) ** 2, 1.0, np.maximum(cap, 1.0))
+        return f
 
     def migration_gain(self, w: IntArray, range_rate: FloatArray) -> FloatArray:
         """Power gain (<= 1) of each waveform's coherent train for targets walking at ``range_rate`` [m/s].
@@ -763,6 +790,7 @@ class ParametricSensor:
         snr = rows[:, col["snr"]]
         # cells with no echo are never detected; keep their rows finite (false alarms always have snr > 0)
         safe = snr if inv_sqrt_snr is not None else np.where(snr > 0, snr, 1.0)
+        z0 = rows[:, 1 : 1 + m].copy()  # noise-free: the truth (targets' range-rate drives the walk below)
         if isinstance(w, np.ndarray):  # per-row waveforms, all with R = R1 / snr
             scaled = e / np.sqrt(safe)[:, None]
             rows[:, 1 : 1 + m] += np.einsum("nij,nj->ni", self._unit_chol_stack[w], scaled)
@@ -780,11 +808,19 @@ class ParametricSensor:
             rdot_var = R1[1, 1] / safe if m == 2 else None
             wavelength = self._wavelengths[w]
         else:
-            cov = self.library[w].covariance(safe)
+            cov = R1 = self.library[w].covariance(safe)
+            safe = np.ones_like(safe)  # R1 is the covariance itself here
             rows[:, 1 : 1 + m] += np.einsum("nij,nj->ni", np.linalg.cholesky(cov), e)
             ridge = cov[:, 0, 1] / cov[:, 1, 1] if m == 2 else 0.0
             rdot_var = cov[:, 1, 1] if m == 2 else None
             wavelength = self._wavelengths[w]
+        if m == 2 and inv_sqrt_snr is None and self._migration is not None:  # target rows: the range walk
+            var0 = np.asarray(R1)[..., [0, 1], [0, 1]] / safe[:, None]  # (n, 2) the CRLB at the rows' SNR
+            f = self.walk_factors(np.broadcast_to(w, safe.shape), z0[:, 1], var0)  # (n, 2)
+            rows[:, 1:3] = z0 + (rows[:, 1:3] - z0) * np.sqrt(f)
+            rows[:, col["walk_r"]], rows[:, col["walk_d"]] = f[:, 0], f[:, 1]
+            ridge = ridge * np.sqrt(f[:, 0] / f[:, 1])
+            rdot_var = rdot_var * f[:, 1]
         period = self.range_rate_period[w] if m == 2 else None
         if m == 2:  # the train measures the Doppler modulo 1 / T1: the range-rate is reported folded (chirp.py)
             rows[:, 2] = fold_range_rate(rows[:, 2], period)
@@ -849,6 +885,9 @@ class ParametricSensor:
             if single
             else self._covariances(np.asarray(waveform_of_tx)[self.pairs[rows[:, 0].astype(np.int64), 0]], snr)
         )
+        if m == 2 and self._migration is not None:  # the range walk's accuracy loss (target rows; 0 means 1)
+            d = np.sqrt(np.maximum(rows[:, [col["walk_r"], col["walk_d"]]], 1.0))
+            cov = cov * d[:, :, None] * d[:, None, :]
         bounds = [*np.searchsorted(rows[:, 0], self._pair_index).tolist(), rows.shape[0]]
         origin = rows[:, col["origin"]].astype(np.int64)
         out = []
@@ -1090,6 +1129,7 @@ class ParametricSensor:
         """
         waveforms = np.asarray(waveforms, dtype=np.int64).reshape(-1)
         az, ok, snr, pd = self._mean_link(tx, rx, positions, waveforms, rcs_m2, swerling)
+        walk_rdot = None
         if velocities is not None and (self._notch is not None or self._migration is not None):
             pos = np.asarray(positions, dtype=float).reshape(-1, 2)
             vel = np.asarray(velocities, dtype=float).reshape(-1, 2)
@@ -1099,6 +1139,7 @@ class ParametricSensor:
             rdot = np.einsum("nd,nd->n", dt / np.maximum(lt, 1e-9)[:, None] + dr / np.maximum(lr, 1e-9)[:, None], vel)
             snr = snr * self.notch_gain(waveforms[:, None], tx, rx, (lt + lr)[None], rdot[None])
             snr = snr * self.migration_gain(waveforms[:, None], rdot[None])
+            walk_rdot = rdot
             pfa = self.cfg.sensing.false_alarm_probability
             # the detector's gain as in _mean_link: detection_gain_db and, with a clutter residue, its quadrature
             gain, weights = self._link_args(tx, rx, waveforms)[2:]  # (W, J), (J,)
@@ -1106,7 +1147,8 @@ class ParametricSensor:
             pd_j = detection_probability(scnr.reshape(-1), pfa, swerling).reshape(scnr.shape)
             pd = np.where(ok, pd_j @ weights, 0.0)
         if not self._all_unit_chol:
-            return pd, self._expected_covariance_reference(rx, az, ok, snr, waveforms)
+            R = self._expected_covariance_reference(rx, az, ok, snr, waveforms)
+            return pd, self._walk_scaled(R, waveforms, walk_rdot)
         lay = self.layout
         R = expected_covariance(
             az,
@@ -1119,7 +1161,16 @@ class ParametricSensor:
             float(lay.rx_spacing_m[rx]),
             self._wavelengths[waveforms],
         )
-        return pd, R
+        return pd, self._walk_scaled(R, waveforms, walk_rdot)
+
+    def _walk_scaled(self, R: FloatArray, waveforms: IntArray, rdot: FloatArray | None) -> FloatArray:
+        """``R`` ``(W, N, m, m)`` times the range walk's variance factors on range and range-rate (walk_factors)."""
+        if rdot is None or self._migration is None or R.shape[-1] < 2:
+            return R
+        var0 = np.stack([R[..., 0, 0], R[..., 1, 1]], axis=-1)
+        d = np.ones(R.shape[:-1])
+        d[..., :2] = np.sqrt(self.walk_factors(np.broadcast_to(waveforms[:, None], R.shape[:2]), rdot[None], var0))
+        return R * d[..., :, None] * d[..., None, :]
 
     def _expected_covariance_reference(
         self, rx: int, az: FloatArray, ok: BoolArray, snr: FloatArray, waveforms: IntArray

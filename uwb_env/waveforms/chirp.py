@@ -158,6 +158,40 @@ def range_migration_gain(
     return amp * amp
 
 
+def range_migration_accuracy(
+    range_rate_mps: FloatArray, range_spread_m: float, pri_s: float, n_pulses: int
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """What the range walk does to the train's peak: ``(gain, c_range, c_rate, walk_m)``, each of the input shape.
+
+    ``gain`` is :func:`range_migration_gain` (the peak power: detection).
+
+    The filter compresses pulse b at the centre delay, where the walked echo sits d_b = rdot T1 b away, so pulse b
+    contributes g_b = exp(-d_b^2 / (4 sigma_r^2)) of its amplitude. To first order the peak's delay error is
+    -n'(0) / s''(0), with the noise derivative n' that of the matched (unwalked) filter and the signal curvature
+    s''(0) the walked one: var(range) = var_0 / c_range^2, c_range = mean_b g_b (1 - d_b^2 / (2 sigma_r^2)) (-> the
+    continuous limit exp(-D^2 / (4 sigma_r^2)), D the half-walk). In Doppler, the pulses weigh g_b in the curvature of
+    the uniformly weighted (DFT) filter: var(rdot) = var_0 / c_rate^2, c_rate = sum_b g_b b^2 / sum_b b^2. Both are
+    1 without walk; var_0 is the unwalked bound at the unwalked SNR (the walk lowers the peak by ``gain`` but leaves
+    the noise derivative alone). The first order fails when the walked peak is flat (c_range << 1): the estimate
+    then wanders over the walk, ``walk_m`` = D = |rdot| T1 (B-1) / 2, and var(range) <= var_0 + D^2 / 3 bounds it
+    (the sensor takes the smaller). Checked against the chain's spread at 160 MHz, 20 dB (std / bound, chain vs
+    this): 1.43 / 1.32 at 5 m/s, 2.89 / 3.00 at 10, 10.5 / 11.9 at 15, 14.3 / 22.7 at 19.5 m/s (the cap is
+    conservative); range-rate 1.27 / 1.18, 2.02 / 1.85, 6.8 / 3.5, 8.2 / 6.7 (the joint delay-Doppler fit couples
+    the walked delay error into the Doppler, which this first order misses at 15 m/s).
+
+    Args: range_rate_mps [m/s] (any shape), range_spread_m sigma_r [m], pri_s T1 [s], n_pulses B.
+    """
+    b = np.arange(n_pulses) - 0.5 * (n_pulses - 1)
+    rdot = np.asarray(range_rate_mps, dtype=float)
+    d = rdot[..., None] * pri_s * b
+    u = np.square(d) / (4.0 * range_spread_m**2)
+    g = np.exp(-u)
+    c_range = (g * (1.0 - 2.0 * u)).mean(axis=-1)
+    b2 = np.square(b)
+    c_rate = (g * b2).sum(axis=-1) / max(float(b2.sum()), 1.0) if n_pulses > 1 else np.ones(rdot.shape)
+    return np.square(g.mean(axis=-1)), c_range, c_rate, np.abs(rdot) * pri_s * 0.5 * (n_pulses - 1)
+
+
 def fold_periodic(values: FloatArray, period: FloatArray | float) -> FloatArray:
     """Values folded into [-period / 2, period / 2); unchanged where the period is inf. Every argument broadcasts.
 
