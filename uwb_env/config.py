@@ -757,7 +757,7 @@ class SensingConfig:
     unit of the pair's direct-path SNR: the parametric detector sees SCNR = SNR / (1 + kappa SNR_dp) (clutter-limited
     detection; the measurement covariance keeps the thermal SNR because the residue lies at other delays); with
     ``clutter_residue_looks`` m > 0 the residue power fluctuates from scan to scan as kappa SNR_dp X, X ~ Gamma(m,
-    1/m), and Pd is averaged over X (m = 0: a constant residue); kappa = 0 is a
+    1/m), and Pd is averaged over X (m = 0: a constant residue; m <= 100); kappa = 0 is a
     noise-limited detector, impulse-radio scenarios use the value calibrated on the signal path
     (``scripts/calibrate_parametric.py``). ``signal`` holds the knobs of the signal-level fidelity
     (:class:`SignalConfig`).
@@ -815,7 +815,9 @@ class SensingConfig:
         _positive("SensingConfig", "max_range_m", self.max_range_m)
         _non_negative("SensingConfig", "blind_zone_excess_m", self.blind_zone_excess_m)
         _non_negative("SensingConfig", "clutter_residue_ratio", self.clutter_residue_ratio)
-        _non_negative("SensingConfig", "clutter_residue_looks", self.clutter_residue_looks)
+        # the Gauss-Laguerre weights of Gamma(m, 1/m) overflow above m = 171; beyond 100 looks the residue varies by
+        # under 10 %: use 0 (a constant residue)
+        _in_range("SensingConfig", "clutter_residue_looks", self.clutter_residue_looks, 0.0, 100.0)
         _bool("SensingConfig", "measure_doa", self.measure_doa)
         _instance("SensingConfig", "clutter", self.clutter, ClutterConfig, "a ClutterConfig")
         _instance("SensingConfig", "signal", self.signal, SignalConfig, "a SignalConfig")
@@ -837,7 +839,8 @@ class MotionModelConfig:
     def __post_init__(self) -> None:
         _name("MotionModelConfig", self.name)
         _choice("MotionModelConfig", "kind", self.kind, ("ncv", "nca", "ct"))
-        _positive("MotionModelConfig", "accel_noise_std_mps2", self.accel_noise_std_mps2)
+        # (0, 100 g]: at 1e6 m/s^2 the predicted covariance (~1e12 m^2/s^4 per scan) meets float64 rounding
+        _in_range("MotionModelConfig", "accel_noise_std_mps2", self.accel_noise_std_mps2, 0.0, 1000.0, closed="(]")
         _finite("MotionModelConfig", "turn_rate_rps", self.turn_rate_rps)
         if self.kind == "ct" and self.turn_rate_rps == 0:
             _fail("MotionModelConfig", "turn_rate_rps", self.turn_rate_rps, "non-zero for a coordinated turn")
@@ -973,7 +976,7 @@ class TrackerConfig:
                 "strictly between terminate_existence and confirm_existence",
             )
         _positive("TrackerConfig", "max_speed_mps", self.max_speed_mps)
-        _positive("TrackerConfig", "initial_accel_std_mps2", self.initial_accel_std_mps2)
+        _in_range("TrackerConfig", "initial_accel_std_mps2", self.initial_accel_std_mps2, 0.0, 1000.0, closed="(]")
         _positive("TrackerConfig", "init_max_position_std_m", self.init_max_position_std_m)
         _int_at_least("TrackerConfig", "init_max_candidates", self.init_max_candidates, 1)
         _positive("TrackerConfig", "max_position_std_m", self.max_position_std_m)
