@@ -374,8 +374,9 @@ def check_env(cfg: TrainConfig) -> None:
     """Build the env once with ``cfg.env_kwargs`` (``ValueError`` naming them when the env refuses them)."""
     try:
         gym.make(cfg.env_id, **cfg.env_kwargs).close()
-    except (TypeError, ValueError) as e:
-        raise ValueError(f"--env-kwarg {cfg.env_kwargs} on {cfg.env_id}: {e}") from e
+    except (TypeError, ValueError, KeyError) as e:
+        why = e.args[0] if isinstance(e, KeyError) and e.args else e  # a KeyError's str() adds quotes
+        raise ValueError(f"--env-kwarg {cfg.env_kwargs} on {cfg.env_id}: {why}") from e
 
 
 # ------------------------------------------------------------------------------------------------ checkpoints
