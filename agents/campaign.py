@@ -154,7 +154,10 @@ def parse_scheme(scheme: str) -> tuple[str, str]:
     tracker = tracker or "scenario"
     if tracker not in TRACKERS:
         raise ValueError(f"scheme {scheme!r}: tracker {tracker!r} must be one of {TRACKERS}")
-    check_scheduler_name(scheduler)  # raises with the allowed names
+    try:
+        check_scheduler_name(scheduler)  # raises with the allowed names
+    except ValueError as e:
+        raise ValueError(f"scheme {scheme!r}: {e}") from None
     return scheduler, tracker
 
 
@@ -231,9 +234,10 @@ def preflight(campaign: Campaign) -> dict[str, Layout]:
         scheduler, tracker = parse_scheme(scheme)
         try:
             env = campaign_env(campaign, tracker)
-        except (TypeError, ValueError) as e:
+        except (TypeError, ValueError, KeyError) as e:
+            why = e.args[0] if isinstance(e, KeyError) and e.args else e  # a KeyError's str() adds quotes
             raise ValueError(
-                f"env {campaign.env} with overrides {campaign.overrides} and env_kwargs {campaign.env_kwargs}: {e}"
+                f"env {campaign.env} with overrides {campaign.overrides} and env_kwargs {campaign.env_kwargs}: {why}"
             ) from e
         if m := re.fullmatch(r"fixed-(\d+)", scheduler):
             n = env.action_space.n

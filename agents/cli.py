@@ -77,7 +77,8 @@ def parse_overrides(items: Sequence[str], flag: str = "--set") -> dict[str, Any]
         try:
             parsed = yaml.safe_load(value)
         except yaml.YAMLError as e:
-            raise ValueError(f"{flag} {item!r}: the value {value!r} is not a YAML scalar or list ({e})") from None
+            why = getattr(e, "problem", None) or type(e).__name__
+            raise ValueError(f"{flag} {item!r}: the value {value!r} is not valid YAML ({why})") from None
         if isinstance(parsed, str):
             try:
                 parsed = float(parsed)

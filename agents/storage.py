@@ -35,7 +35,7 @@ def atomic_write(path: pathlib.Path, write: Callable[[IO[bytes]], object]) -> pa
         tmp = pathlib.Path(f.name)
         try:
             os.fchmod(f.fileno(), 0o666 & ~_umask())  # a temporary file is 0600; the result gets the usual mode
-            write(f)
+            write(f.file)  # the underlying BufferedRandom (some writers check the type)
             f.flush()
             os.fsync(f.fileno())
         except BaseException:
@@ -66,7 +66,7 @@ def remove_stale_temporaries(folder: pathlib.Path) -> list[pathlib.Path]:
     return stale
 
 
-def move_aside(path: pathlib.Path, reason: str) -> pathlib.Path:
+def move_aside(path: pathlib.Path, reason: str, then: str = "recomputing") -> pathlib.Path:
     """Rename a damaged file to ``<name>.damaged`` (``.damaged-2``, ... when taken), say so on stderr; the new path."""
     target = path.with_name(path.name + ".damaged")
     n = 1
@@ -74,7 +74,7 @@ def move_aside(path: pathlib.Path, reason: str) -> pathlib.Path:
         n += 1
         target = path.with_name(f"{path.name}.damaged-{n}")
     os.replace(path, target)
-    print(f"damaged run file {path}: {reason}; moved to {target.name}, recomputing", file=sys.stderr)
+    print(f"damaged file {path}: {reason}; moved to {target.name}, {then}", file=sys.stderr)
     return target
 
 

@@ -189,7 +189,7 @@ def test_a_damaged_run_file_is_named_moved_aside_and_recomputed(tmp_path, small,
         read_record(path, preflight(_small())["myopic"])
     run_campaign(_small(), out, workers=1, progress=False)
     err = capsys.readouterr().err
-    assert f"damaged run file {path}" in err and "moved to seed-1.csv.damaged" in err
+    assert f"damaged file {path}" in err and "moved to seed-1.csv.damaged" in err
     assert (path.parent / "seed-1.csv.damaged").exists()
     assert summarise(_small(), out) == expected
 

@@ -162,3 +162,23 @@ def test_rllib_ppo_with_two_envs_per_runner():
             algo.stop()
     finally:
         ray.shutdown()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("env_id", IDS)
+def test_async_vector_env_in_fresh_interpreters(env_id):
+    """forkserver / spawn workers import nothing from the parent: the ``"module:id"`` form registers the ids there."""
+    ref = _reference_info(env_id)
+    with time_limit(300):
+        envs = gym.make_vec(
+            f"uwb_env:{env_id}", num_envs=2, vectorization_mode="async", vector_kwargs={"context": "forkserver"}
+        )
+        try:
+            envs.reset(seed=[0, 1])
+            envs.action_space.seed(0)
+            for _ in range(TOTAL_STEPS // 2):
+                obs, reward, _, _, info = envs.step(envs.action_space.sample())
+                assert np.isfinite(obs).all() and np.isfinite(reward).all()
+                _check_vector_info(info, ref, 2)
+        finally:
+            envs.close()

@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
+import numbers
 import types
 import typing
 from collections.abc import Mapping
@@ -72,7 +73,8 @@ def _vec2(owner: str, name: str, value: object) -> None:
 
 
 def _choice(owner: str, name: str, value: object, allowed: tuple[object, ...]) -> None:
-    if value not in allowed:
+    # equal *and* of the same type: True is not 1, 1.0 is not 1, so a bool or a float never passes for an int
+    if not any(type(value) is type(a) and value == a for a in allowed):
         hint = ""
         if isinstance(value, str):
             close = difflib.get_close_matches(value, [str(a) for a in allowed], n=1)
@@ -88,6 +90,26 @@ def _int_at_least(owner: str, name: str, value: object, lo: int) -> None:
 def _name(owner: str, value: object) -> None:
     if not isinstance(value, str) or not value.strip():
         _fail(owner, "name", value, "a non-empty string")
+
+
+def _bool(owner: str, name: str, value: object) -> None:
+    if not isinstance(value, bool):
+        _fail(owner, name, value, "True or False (a bool)")
+
+
+def _str(owner: str, name: str, value: object) -> None:
+    if not isinstance(value, str):
+        _fail(owner, name, value, "a string")
+
+
+def _instance(owner: str, name: str, value: object, cls: type | tuple[type, ...], allowed: str) -> None:
+    if not isinstance(value, cls):
+        _fail(owner, name, value, allowed)
+
+
+def _tuple_of(owner: str, name: str, value: object, cls: type | tuple[type, ...], allowed: str) -> None:
+    if not isinstance(value, tuple) or not all(isinstance(v, cls) for v in value):
+        _fail(owner, name, value, f"a tuple of {allowed}")
 
 
 # --------------------------------------------------------------------------------------------------------- geometry
@@ -178,6 +200,10 @@ class ReceiverConfig:
         _vec2("ReceiverConfig", "position_m", self.position_m)
         _in_range("ReceiverConfig", "noise_figure_db", self.noise_figure_db, 0.0, 40.0)
         _in_range("ReceiverConfig", "antenna_gain_db", self.antenna_gain_db, -30.0, 60.0)
+        if self.array is not None:
+            _instance(
+                "ReceiverConfig", "array", self.array, UniformLinearArrayConfig, "None or a UniformLinearArrayConfig"
+            )
 
 
 # ------------------------------------------------------------------------------------------------- walls, clutter
@@ -194,7 +220,12 @@ class MaterialConfig:
 
     def __post_init__(self) -> None:
         _name("MaterialConfig", self.name)
-        if not isinstance(self.loss_db, (int, float)) or math.isnan(self.loss_db) or self.loss_db < 0:
+        if (
+            not isinstance(self.loss_db, (int, float))
+            or isinstance(self.loss_db, bool)
+            or math.isnan(self.loss_db)
+            or self.loss_db < 0
+        ):
             _fail("MaterialConfig", "loss_db", self.loss_db, ">= 0 (inf for an opaque obstacle)")
         _in_range("MaterialConfig", "excess_delay_s", self.excess_delay_s, 0.0, 1e-6)
 
@@ -210,6 +241,7 @@ class WallConfig:
     def __post_init__(self) -> None:
         _vec2("WallConfig", "start_m", self.start_m)
         _vec2("WallConfig", "end_m", self.end_m)
+        _instance("WallConfig", "material", self.material, MaterialConfig, "a MaterialConfig")
         if math.dist(self.start_m, self.end_m) <= 0:
             _fail("WallConfig", "end_m", self.end_m, "different from start_m (a wall has non-zero length)")
 
@@ -324,8 +356,12 @@ class SegmentedTrajectoryConfig:
         _vec2("SegmentedTrajectoryConfig", "start_velocity_mps", self.start_velocity_mps)
         if math.hypot(*self.start_velocity_mps) <= 0:
             _fail("SegmentedTrajectoryConfig", "start_velocity_mps", self.start_velocity_mps, "non-zero")
-        if not isinstance(self.segments, tuple) or not self.segments:
-            _fail("SegmentedTrajectoryConfig", "segments", self.segments, "a non-empty tuple of segments")
+        if (
+            not isinstance(self.segments, tuple)
+            or not self.segments
+            or not all(isinstance(g, MotionSegmentConfig) for g in self.segments)
+        ):
+            _fail("SegmentedTrajectoryConfig", "segments", self.segments, "a non-empty tuple of MotionSegmentConfig")
 
     @property
     def duration_s(self) -> float:
@@ -380,6 +416,7 @@ class RoomWalkTrajectoryConfig:
     wall_clearance_m: float = 0.3
 
     def __post_init__(self) -> None:
+        _instance("RoomWalkTrajectoryConfig", "start_region", self.start_region, Box, "a Box")
         _positive("RoomWalkTrajectoryConfig", "length_m", self.length_m)
         _positive("RoomWalkTrajectoryConfig", "speed_mps", self.speed_mps)
         _non_negative("RoomWalkTrajectoryConfig", "heading_change_std_rad", self.heading_change_std_rad)
@@ -516,6 +553,13 @@ class ImpulseWaveformConfig:
         _int_at_least("ImpulseWaveformConfig", "n_pulses", self.n_pulses, 1)
         _in_range("ImpulseWaveformConfig", "prf_hz", self.prf_hz, 1.0, 1e9, closed="[]")
         _choice("ImpulseWaveformConfig", "toa_error_model", self.toa_error_model, ("crlb", "energy_detector"))
+        _instance(
+            "ImpulseWaveformConfig",
+            "energy_detector",
+            self.energy_detector,
+            EnergyDetectorToaConfig,
+            "an EnergyDetectorToaConfig",
+        )
 
 
 WaveformConfig = Union[ChirpWaveformConfig, ImpulseWaveformConfig]
@@ -699,6 +743,7 @@ class SignalConfig:
         _non_negative("SignalConfig", "false_ranges_per_scan", self.false_ranges_per_scan)
         if self.direct_path_offset_s * self.sample_rate_hz >= self.n_samples:
             _fail("SignalConfig", "direct_path_offset_s", self.direct_path_offset_s, "inside the scan window")
+        _instance("SignalConfig", "chirp", self.chirp, ChirpSignalConfig, "a ChirpSignalConfig")
 
 
 @dataclass(frozen=True, slots=True)
@@ -712,7 +757,7 @@ class SensingConfig:
     unit of the pair's direct-path SNR: the parametric detector sees SCNR = SNR / (1 + kappa SNR_dp) (clutter-limited
     detection; the measurement covariance keeps the thermal SNR because the residue lies at other delays); with
     ``clutter_residue_looks`` m > 0 the residue power fluctuates from scan to scan as kappa SNR_dp X, X ~ Gamma(m,
-    1/m), and Pd is averaged over X (m = 0: a constant residue); kappa = 0 is a
+    1/m), and Pd is averaged over X (m = 0: a constant residue; m <= 100); kappa = 0 is a
     noise-limited detector, impulse-radio scenarios use the value calibrated on the signal path
     (``scripts/calibrate_parametric.py``). ``signal`` holds the knobs of the signal-level fidelity
     (:class:`SignalConfig`).
@@ -732,6 +777,12 @@ class SensingConfig:
     covered target yields, per pair and scan, a Poisson number of mean ``ghost_rate`` of detections on its paths
     through a scatterer, an exponential excess of mean ``ghost_range_offset_m`` beyond its bistatic range, its
     range-rate offset by N(0, ``ghost_range_rate_std_mps``^2); 0 (the default) draws none.
+
+    ``min_range_std_m``: the floor of every measurement's range std (the receiver's timing jitter times c): the
+    CRLB measurement models stop improving at the SNR where the range std reaches it, which floors range-rate and
+    azimuth variances at the same SNR (``uwb_env.sensing.parametric.accuracy_snr_caps``). Without it a valid strong
+    transmitter gives variances the tracker's covariance update cannot hold positive definite. In [1e-5, 1] m: below
+    10 um the update of a track at the deletion limit (P ~ (50 m)^2) meets float64 rounding.
     """
 
     fidelity: Literal["parametric", "signal"] = "parametric"
@@ -747,6 +798,7 @@ class SensingConfig:
     ghost_rate: float = 0.0
     ghost_range_offset_m: float = 20.0
     ghost_range_rate_std_mps: float = 2.5
+    min_range_std_m: float = 5e-5
     clutter: ClutterConfig = field(default_factory=ClutterConfig)
     signal: SignalConfig = field(default_factory=SignalConfig)
 
@@ -757,14 +809,18 @@ class SensingConfig:
         _in_range("SensingConfig", "ghost_rate", self.ghost_rate, 0.0, 100.0)
         _positive("SensingConfig", "ghost_range_offset_m", self.ghost_range_offset_m)
         _non_negative("SensingConfig", "ghost_range_rate_std_mps", self.ghost_range_rate_std_mps)
+        _in_range("SensingConfig", "min_range_std_m", self.min_range_std_m, 1e-5, 1.0)
         _positive("SensingConfig", "scan_period_s", self.scan_period_s)
         _in_range("SensingConfig", "false_alarm_probability", self.false_alarm_probability, 0.0, 0.1, closed="(]")
         _positive("SensingConfig", "max_range_m", self.max_range_m)
         _non_negative("SensingConfig", "blind_zone_excess_m", self.blind_zone_excess_m)
         _non_negative("SensingConfig", "clutter_residue_ratio", self.clutter_residue_ratio)
-        _non_negative("SensingConfig", "clutter_residue_looks", self.clutter_residue_looks)
-        if not isinstance(self.measure_doa, bool):
-            _fail("SensingConfig", "measure_doa", self.measure_doa, "a bool")
+        # the Gauss-Laguerre weights of Gamma(m, 1/m) overflow above m = 171; beyond 100 looks the residue varies by
+        # under 10 %: use 0 (a constant residue)
+        _in_range("SensingConfig", "clutter_residue_looks", self.clutter_residue_looks, 0.0, 100.0)
+        _bool("SensingConfig", "measure_doa", self.measure_doa)
+        _instance("SensingConfig", "clutter", self.clutter, ClutterConfig, "a ClutterConfig")
+        _instance("SensingConfig", "signal", self.signal, SignalConfig, "a SignalConfig")
 
 
 @dataclass(frozen=True, slots=True)
@@ -783,7 +839,8 @@ class MotionModelConfig:
     def __post_init__(self) -> None:
         _name("MotionModelConfig", self.name)
         _choice("MotionModelConfig", "kind", self.kind, ("ncv", "nca", "ct"))
-        _positive("MotionModelConfig", "accel_noise_std_mps2", self.accel_noise_std_mps2)
+        # (0, 100 g]: at 1e6 m/s^2 the predicted covariance (~1e12 m^2/s^4 per scan) meets float64 rounding
+        _in_range("MotionModelConfig", "accel_noise_std_mps2", self.accel_noise_std_mps2, 0.0, 1000.0, closed="(]")
         _finite("MotionModelConfig", "turn_rate_rps", self.turn_rate_rps)
         if self.kind == "ct" and self.turn_rate_rps == 0:
             _fail("MotionModelConfig", "turn_rate_rps", self.turn_rate_rps, "non-zero for a coordinated turn")
@@ -800,7 +857,7 @@ class ModelSetWindowConfig:
     def __post_init__(self) -> None:
         _int_at_least("ModelSetWindowConfig", "first_scan", self.first_scan, 0)
         _int_at_least("ModelSetWindowConfig", "last_scan", self.last_scan, self.first_scan)
-        if not isinstance(self.models, tuple) or not self.models:
+        if not isinstance(self.models, tuple) or not self.models or not all(isinstance(m, str) for m in self.models):
             _fail("ModelSetWindowConfig", "models", self.models, "a non-empty tuple of model names")
 
 
@@ -872,8 +929,16 @@ class TrackerConfig:
 
     def __post_init__(self) -> None:
         _in_range("TrackerConfig", "range_rate_noise_floor_mps", self.range_rate_noise_floor_mps, 0.0, 1e3)
-        if not isinstance(self.models, tuple) or not self.models:
+        if (
+            not isinstance(self.models, tuple)
+            or not self.models
+            or not all(isinstance(m, MotionModelConfig) for m in self.models)
+        ):
             _fail("TrackerConfig", "models", self.models, "a non-empty tuple of MotionModelConfig")
+        _tuple_of("TrackerConfig", "default_models", self.default_models, str, "model names")
+        _tuple_of(
+            "TrackerConfig", "model_set_windows", self.model_set_windows, ModelSetWindowConfig, "ModelSetWindowConfig"
+        )
         names = [m.name for m in self.models]
         if len(set(names)) != len(names):
             _fail("TrackerConfig", "models", names, "uniquely named")
@@ -886,7 +951,8 @@ class TrackerConfig:
         ):
             _fail("TrackerConfig", "transition", rows, f"a {r} x {r} tuple of tuples (one row per model)")
         for i, row in enumerate(rows):
-            if any((not math.isfinite(v)) or v < 0 for v in row) or abs(sum(row) - 1.0) > 1e-9:
+            numbers = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in row)
+            if not numbers or any((not math.isfinite(v)) or v < 0 for v in row) or abs(sum(row) - 1.0) > 1e-9:
                 _fail("TrackerConfig", f"transition[{i}]", row, "non-negative entries summing to 1 (rows = from)")
         for group, sets in (
             ("default_models", (self.default_models,)),
@@ -910,7 +976,7 @@ class TrackerConfig:
                 "strictly between terminate_existence and confirm_existence",
             )
         _positive("TrackerConfig", "max_speed_mps", self.max_speed_mps)
-        _positive("TrackerConfig", "initial_accel_std_mps2", self.initial_accel_std_mps2)
+        _in_range("TrackerConfig", "initial_accel_std_mps2", self.initial_accel_std_mps2, 0.0, 1000.0, closed="(]")
         _positive("TrackerConfig", "init_max_position_std_m", self.init_max_position_std_m)
         _int_at_least("TrackerConfig", "init_max_candidates", self.init_max_candidates, 1)
         _positive("TrackerConfig", "max_position_std_m", self.max_position_std_m)
@@ -919,6 +985,7 @@ class TrackerConfig:
         _positive("TrackerConfig", "assumed_rcs_m2", self.assumed_rcs_m2)
         _choice("TrackerConfig", "assumed_swerling", self.assumed_swerling, (0, 1, 3))
         _in_range("TrackerConfig", "max_detection_probability", self.max_detection_probability, 0.0, 1.0, closed="(]")
+        _bool("TrackerConfig", "fixed_existence", self.fixed_existence)
 
     def active_models(self, scan_index: int) -> tuple[str, ...]:
         """The model set in force at a scan (the first matching window, else the default set)."""
@@ -970,6 +1037,23 @@ class ScenarioConfig:
 
     def __post_init__(self) -> None:
         _name("ScenarioConfig", self.name)
+        _instance("ScenarioConfig", "world", self.world, Box, "a Box")
+        _instance("ScenarioConfig", "surveillance_area", self.surveillance_area, Box, "a Box")
+        for group, cls in (
+            ("transmitters", TransmitterConfig),
+            ("receivers", ReceiverConfig),
+            ("targets", TargetConfig),
+            ("walls", WallConfig),
+            ("line_scatterers", LineScattererConfig),
+        ):
+            _tuple_of("ScenarioConfig", group, getattr(self, group), cls, cls.__name__)
+        _instance("ScenarioConfig", "clutter_points_m", self.clutter_points_m, tuple, "a tuple of (x, y) points")
+        _instance("ScenarioConfig", "pairs", self.pairs, tuple, "a tuple of (tx, rx) index pairs")
+        _instance("ScenarioConfig", "channel", self.channel, ChannelConfig, "a ChannelConfig")
+        _instance("ScenarioConfig", "sensing", self.sensing, SensingConfig, "a SensingConfig")
+        _instance("ScenarioConfig", "tracker", self.tracker, TrackerConfig, "a TrackerConfig")
+        _str("ScenarioConfig", "description", self.description)
+        _str("ScenarioConfig", "seed_reference", self.seed_reference)
         if not self.world.contains_box(self.surveillance_area):
             _fail("ScenarioConfig", "surveillance_area", self.surveillance_area, f"inside world {self.world}")
         for group in ("transmitters", "receivers", "waveforms", "targets"):
@@ -1033,6 +1117,7 @@ class ScenarioConfig:
             if (
                 not isinstance(pair, tuple)
                 or len(pair) != 2
+                or not all(isinstance(i, int) and not isinstance(i, bool) for i in pair)
                 or not 0 <= pair[0] < len(self.transmitters)
                 or not 0 <= pair[1] < len(self.receivers)
             ):
@@ -1127,10 +1212,14 @@ def _convert(tp: Any, value: Any, path: str) -> Any:
         if not isinstance(value, Mapping):
             raise ValueError(f"{path} = {value!r}: expected a mapping for {tp.__name__}")
         return from_dict(tp, value, path)
-    if tp is float and isinstance(value, (int, float)) and not isinstance(value, bool):
+    # numbers keep their kind: an int (or numpy integer) is a valid float and becomes one; a float never becomes an
+    # int (8.0 for an integer field is refused by the field's check), a bool or a string never becomes a number
+    if tp is float and isinstance(value, numbers.Real) and not isinstance(value, bool):
         return float(value)
-    if tp is int and isinstance(value, float) and value.is_integer():
+    if tp is int and isinstance(value, numbers.Integral) and not isinstance(value, bool):
         return int(value)
+    if tp is bool and type(value).__name__ == "bool_":  # numpy's bool
+        return bool(value)
     return value
 
 
@@ -1139,12 +1228,22 @@ def from_dict(cls: type, data: Mapping[str, Any], path: str = "") -> Any:
     hints = typing.get_type_hints(cls)
     names = [f.name for f in dataclasses.fields(cls)]
     where = path or cls.__name__
+    if not isinstance(data, Mapping):
+        raise ValueError(f"{where} = {data!r}: must be a mapping of {cls.__name__} fields {names}")
     tag = "kind" if "kind" not in names else None  # the union tag, unless ``kind`` is a real field
     unknown = [k for k in data if k not in names and k != tag]
     if unknown:
         close = difflib.get_close_matches(unknown[0], names, n=1)
         hint = f" (did you mean {close[0]!r}?)" if close else ""
         raise KeyError(f"{where}: unknown field {unknown[0]!r}{hint}; allowed: {names}")
+    required = [
+        f.name
+        for f in dataclasses.fields(cls)
+        if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
+    ]
+    missing = [k for k in required if k not in data]
+    if missing:
+        raise KeyError(f"{where}: missing field {missing[0]!r}; {cls.__name__} requires {required}")
     kwargs = {k: _convert(hints[k], v, f"{where}.{k}") for k, v in data.items() if k != tag}
     return cls(**kwargs)
 
@@ -1155,9 +1254,28 @@ def save_yaml(cfg: ScenarioConfig, path: str | Path) -> None:
 
 
 def load_yaml(path: str | Path) -> ScenarioConfig:
-    """Read a scenario from YAML (validated on construction)."""
-    data = yaml.safe_load(Path(path).read_text())
-    return from_dict(ScenarioConfig, data)
+    """Read a scenario from YAML (validated on construction); every error names the file.
+
+    Raises ``ValueError`` for a file that is empty, not YAML or not a mapping, ``KeyError`` / ``ValueError`` (as
+    :func:`from_dict`) for unknown or missing fields and bad values, each message prefixed with the file's path.
+    """
+    path = Path(path)
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as exc:
+        raise ValueError(f"{path}: not valid YAML ({exc})") from exc
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{path}: not a text file ({exc})") from exc
+    if data is None:
+        raise ValueError(f"{path}: the file is empty; it must hold a mapping of ScenarioConfig fields")
+    if not isinstance(data, Mapping):
+        raise ValueError(f"{path}: holds a {type(data).__name__}; it must hold a mapping of ScenarioConfig fields")
+    try:
+        return from_dict(ScenarioConfig, data)
+    except KeyError as exc:
+        raise KeyError(f"{path}: {exc.args[0]}") from exc
+    except (ValueError, TypeError) as exc:
+        raise type(exc)(f"{path}: {exc}") from exc
 
 
 # ------------------------------------------------------------------------------------------------------ overrides
@@ -1192,13 +1310,18 @@ def _apply_tree(obj: Any, tree: Mapping[str, Any], where: str) -> Any:
             changes[key] = _apply_tree(current, value, here)
         else:
             changes[key] = _convert(hints[key], value, here)
-    return dataclasses.replace(obj, **changes)
+    try:
+        return dataclasses.replace(obj, **changes)
+    except ValueError as exc:  # the config's check names its own field; add where it sits in the override
+        raise ValueError(f"{where}: {exc}" if where else str(exc)) from exc
 
 
 def _as_tree(overrides: Mapping[str, Any]) -> dict[str, Any]:
     """Dotted keys (and nested mappings) -> one nested mapping."""
     tree: dict[str, Any] = {}
     for dotted, value in overrides.items():
+        if not isinstance(dotted, str) or not dotted:
+            raise KeyError(f"override key {dotted!r}: must be a dotted field path such as 'sensing.scan_period_s'")
         keys = dotted.split(".")
         node = tree
         for k in keys[:-1]:

@@ -22,9 +22,14 @@ Run directory layout: ``model.zip``, ``vecnormalize.pkl``, ``checkpoints/rl_mode
 from __future__ import annotations
 
 import csv
+import importlib.util
+import inspect
+import io
 import math
+import os
 import pickle
 import re
+import sys
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -38,13 +43,15 @@ from sb3_contrib import MaskablePPO
 from stable_baselines3 import A2C, DQN, PPO
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList, CheckpointCallback
-from stable_baselines3.common.logger import configure
+from stable_baselines3.common.logger import CSVOutputFormat, KVWriter, Logger, make_output_format
 from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv, VecNormalize
 from tqdm.auto import tqdm
 
 import uwb_env  # noqa: F401  (registers the env ids)
 from uwb_env.agents.schedulers import make_scheduler
+from uwb_env.agents.storage import FolderLock, atomic_write, atomic_write_text, move_aside, read_error
+from uwb_env.envs import ENV_IDS
 
 ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "a2c": A2C, "dqn": DQN, "maskable-ppo": MaskablePPO}
 EVAL_SEED0 = 1_000_000  # evaluation seeds start here; training seeds are seed .. seed + n_envs - 1 (and resets)
@@ -229,8 +236,29 @@ class PolicyScheduler:
         return int(np.asarray(action).reshape(-1)[0])
 
 
+def _read_yaml(path: Path, what: str) -> dict[str, Any]:
+    """A YAML mapping, or ``ValueError`` naming the file when it is damaged."""
+    with read_error(path, what):
+        data = yaml.safe_load(path.read_text())
+        if not isinstance(data, dict):
+            raise TypeError(f"a YAML {type(data).__name__}, not a mapping")
+    return data
+
+
+def _load_normalizer(path: Path) -> VecNormalize:
+    """A saved ``VecNormalize`` (its statistics only, no env behind it), or ``ValueError`` naming the file."""
+    with read_error(path, "a VecNormalize pickle (the observation normaliser)"), path.open("rb") as f:
+        normalizer = pickle.load(f)  # our own run's file
+        if not isinstance(normalizer, VecNormalize):
+            raise TypeError(f"a pickled {type(normalizer).__name__}, not a VecNormalize")
+    return normalizer
+
+
 def load_scheduler(run: str | Path) -> PolicyScheduler:
-    """A trained run (its directory, or a model zip with ``vecnormalize.pkl`` beside it) as a scheduler."""
+    """A trained run (its directory, or a model zip with ``vecnormalize.pkl`` beside it) as a scheduler.
+
+    A damaged ``run.yaml``, model zip or ``vecnormalize.pkl`` raises ``ValueError`` naming the file.
+    """
     path = Path(run)
     zip_path = path / "model.zip" if path.is_dir() else path
     if not zip_path.is_file():
@@ -238,21 +266,68 @@ def load_scheduler(run: str | Path) -> PolicyScheduler:
     run_yaml = zip_path.parent / "run.yaml"
     if not run_yaml.is_file():
         raise FileNotFoundError(f"{str(run_yaml)!r} not found: a trained run keeps its env id and algorithm there")
-    cfg = yaml.safe_load(run_yaml.read_text())
+    cfg = _read_yaml(run_yaml, "a training run's configuration (YAML mapping with env_id and algo)")
+    if cfg.get("algo") not in ALGORITHMS:
+        raise ValueError(f"{run_yaml}: algo={cfg.get('algo')!r} must be one of {sorted(ALGORITHMS)}")
     th.set_num_threads(1)  # a small MLP: one thread is fastest, and campaign workers must not oversubscribe
-    model = ALGORITHMS[cfg["algo"]].load(zip_path, device="cpu")
+    with read_error(zip_path, f"a saved {cfg['algo']} model (zip)"):
+        model = ALGORITHMS[cfg["algo"]].load(zip_path, device="cpu")
     norm = zip_path.parent / "vecnormalize.pkl"
     normalizer = None
-    if norm.is_file():  # only its statistics are needed: unpickled without an env behind it
-        with norm.open("rb") as f:
-            normalizer = pickle.load(f)  # our own run's file
+    if norm.is_file():
+        normalizer = _load_normalizer(norm)
         normalizer.training = False
     return PolicyScheduler(model, normalizer)
 
 
+# ------------------------------------------------------------------------------------------ configuration checks
+COMMON_KEYS = ("n_envs", "vec_env", "normalize", "eval_freq", "eval_episodes", "checkpoint_freq")
+RESERVED = {  # constructor arguments the command sets itself
+    "env": "the env is --env with --env-kwarg",
+    "seed": "use --seed",
+    "tensorboard_log": "use --tensorboard (logs to <out>/tensorboard)",
+    "device": "training runs on the CPU",
+    "verbose": "progress goes to progress.csv",
+    "_init_setup_model": "internal to stable-baselines3",
+}
+POSITIVE_INTS = {"n_envs", "eval_freq", "eval_episodes", "checkpoint_freq", "n_steps", "batch_size", "n_epochs",
+                 "buffer_size", "train_freq", "target_update_interval", "gradient_steps"}  # fmt: skip
+UNIT_INTERVAL = {"gamma", "gae_lambda", "exploration_fraction", "exploration_initial_eps", "exploration_final_eps"}
+
+
+def allowed_keys(algo: str) -> set[str]:
+    """The ``--hyper`` keys for ``algo``: the preset's common keys and the algorithm's constructor arguments."""
+    params = inspect.signature(ALGORITHMS[algo].__init__).parameters
+    return (set(params) - {"self", "args", "kwargs"} - set(RESERVED)) | set(COMMON_KEYS)
+
+
+def check_hyper(key: str, value: Any, preset_value: Any, algo: str) -> None:
+    """Raise ``ValueError`` naming ``--hyper KEY``, the value and what is allowed."""
+    if key in RESERVED:
+        raise ValueError(f"--hyper {key}={value!r}: not a hyper-parameter ({RESERVED[key]})")
+    if key not in allowed_keys(algo):
+        raise ValueError(f"--hyper {key}={value!r}: unknown for {algo}; must be one of {sorted(allowed_keys(algo))}")
+    is_int = isinstance(value, int) and not isinstance(value, bool)
+    if key in POSITIVE_INTS and (not is_int or value < 1):
+        raise ValueError(f"--hyper {key}={value!r}: must be an integer >= 1")
+    if key == "learning_starts" and (not is_int or value < 0):
+        raise ValueError(f"--hyper {key}={value!r}: must be an integer >= 0")
+    number = isinstance(value, int | float) and not isinstance(value, bool)
+    if key in UNIT_INTERVAL and (not number or not 0.0 <= value <= 1.0):
+        raise ValueError(f"--hyper {key}={value!r}: must be a number in [0, 1]")
+    if key in ("learning_rate", "ent_coef", "vf_coef", "max_grad_norm", "tau") and (not number or value < 0):
+        raise ValueError(f"--hyper {key}={value!r}: must be a number >= 0")
+    if key == "vec_env" and value not in ("dummy", "subproc"):
+        raise ValueError(f"--hyper vec_env={value!r}: must be 'dummy' or 'subproc'")
+    if key == "normalize" and not (value is False or value is None or isinstance(value, dict)):
+        raise ValueError(f"--hyper normalize={value!r}: must be false or a mapping of VecNormalize arguments")
+    if preset_value is not None and type(preset_value) is bool and type(value) is not bool:
+        raise ValueError(f"--hyper {key}={value!r}: must be true or false")
+
+
 @dataclass
 class TrainConfig:
-    """Everything one training run needs (written to ``run.yaml``)."""
+    """Everything one training run needs (written to ``run.yaml``); checked when built."""
 
     env_id: str
     algo: str
@@ -261,69 +336,200 @@ class TrainConfig:
     seed: int = 0
     env_kwargs: dict[str, Any] = field(default_factory=dict)
     overrides: dict[str, Any] = field(default_factory=dict)  # replace preset entries ("n_envs", "learning_rate", ...)
+    tensorboard: bool = False  # also log to <out>/tensorboard (needs the tensorboard package)
+
+    def __post_init__(self) -> None:
+        self.out = Path(self.out)
+        if self.env_id not in ENV_IDS:
+            raise ValueError(f"env_id={self.env_id!r}: must be one of {sorted(ENV_IDS)}")
+        if self.algo not in ALGORITHMS:
+            raise ValueError(f"algo={self.algo!r}: must be one of {sorted(ALGORITHMS)}")
+        for name, low in (("timesteps", 1), ("seed", 0)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                raise ValueError(f"{name}={value!r}: must be an integer >= {low}")
+        for name in ("env_kwargs", "overrides"):
+            if not isinstance(getattr(self, name), dict):
+                raise ValueError(f"{name}={getattr(self, name)!r}: must be a mapping")
+        if not isinstance(self.tensorboard, bool):
+            raise ValueError(f"tensorboard={self.tensorboard!r}: must be true or false")
+        if self.tensorboard and importlib.util.find_spec("tensorboard") is None:
+            raise ValueError("tensorboard=True: the tensorboard package is not installed (pip install tensorboard)")
+        if self.out.exists() and not self.out.is_dir():
+            raise ValueError(f"out={str(self.out)!r}: is a file (must be a folder, existing or new)")
+
+
+def resolve(cfg: TrainConfig) -> tuple[dict[str, Any], dict[str, Any], int]:
+    """The preset's ``common`` and algorithm blocks with ``cfg.overrides`` applied (each checked), and its version."""
+    preset = load_preset(cfg.env_id, cfg.algo)
+    common, hyper = preset["common"], preset["algo"]
+    for key, value in cfg.overrides.items():
+        target = common if key in COMMON_KEYS else hyper
+        check_hyper(key, value, target.get(key), cfg.algo)
+        target[key] = value
+    return common, hyper, preset["version"]
+
+
+def check_env(cfg: TrainConfig) -> None:
+    """Build the env once with ``cfg.env_kwargs`` (``ValueError`` naming them when the env refuses them)."""
+    try:
+        gym.make(cfg.env_id, **cfg.env_kwargs).close()
+    except (TypeError, ValueError, KeyError) as e:
+        why = e.args[0] if isinstance(e, KeyError) and e.args else e  # a KeyError's str() adds quotes
+        raise ValueError(f"--env-kwarg {cfg.env_kwargs} on {cfg.env_id}: {why}") from e
+
+
+# ------------------------------------------------------------------------------------------------ checkpoints
+def checkpoints(out: Path) -> list[tuple[int, Path]]:
+    """Every ``checkpoints/rl_model_<steps>_steps.zip`` of a run, newest first."""
+    found = [(int(m.group(1)), p) for p in (out / "checkpoints").glob("rl_model_*_steps.zip")
+             if (m := _CHECKPOINT.search(p.name))]  # fmt: skip
+    return sorted(found, reverse=True)
 
 
 def latest_checkpoint(out: Path) -> tuple[Path, int] | None:
     """The newest ``checkpoints/rl_model_<steps>_steps.zip`` of a run and its step count."""
-    found = [
-        (int(m.group(1)), p)
-        for p in (out / "checkpoints").glob("rl_model_*_steps.zip")
-        if (m := _CHECKPOINT.search(p.name))
-    ]
-    if not found:
-        return None
-    steps, path = max(found)
-    return path, steps
+    found = checkpoints(out)
+    return (found[0][1], found[0][0]) if found else None
 
 
+def load_checkpoint(cls: type[BaseAlgorithm], path: Path, steps: int, venv: VecEnv, normalize: bool):
+    """A checkpoint's model (on ``venv``, under its saved normaliser when ``normalize``) and replay buffer."""
+    folder = path.parent
+    if normalize:
+        norm = folder / f"rl_model_vecnormalize_{steps}_steps.pkl"
+        if not norm.is_file():
+            raise FileNotFoundError(f"{norm.name} is missing")
+        saved = _load_normalizer(norm)
+        saved.set_venv(venv)
+        venv = saved
+    model = cls.load(path, env=venv, device="cpu")
+    buf = folder / f"rl_model_replay_buffer_{steps}_steps.pkl"
+    if hasattr(model, "replay_buffer") and buf.is_file():
+        model.load_replay_buffer(buf)
+    return model, venv
+
+
+def resume_from(cls: type[BaseAlgorithm], out: Path, venv: VecEnv, normalize: bool):
+    """The newest checkpoint that loads, falling back to older ones; says which it used and which were damaged.
+
+    A damaged checkpoint (its zip, normaliser or replay buffer does not load) is moved aside (``*.damaged``) so
+    that the run's checkpoints stay readable. Returns ``(model, venv, steps)``, or ``None`` without checkpoints.
+    """
+    for steps, path in checkpoints(out):
+        try:
+            model, wrapped = load_checkpoint(cls, path, steps, venv, normalize)
+        except Exception as e:  # any failure to read it: a damaged or partial checkpoint
+            reason = f"checkpoint at {steps} steps does not load ({type(e).__name__}: {e})"
+            move_aside(path, reason, "trying the previous one")
+            continue
+        print(f"resuming from {path} at {steps} steps", file=sys.stderr)
+        return model, wrapped, steps
+    return None
+
+
+# ------------------------------------------------------------------------------------------------- the logs
+class AppendingCSV(CSVOutputFormat):
+    """SB3's CSV log, continuing an existing file (its header's keys kept) instead of overwriting it."""
+
+    def __init__(self, filename: str) -> None:
+        path = Path(filename)
+        self.file = path.open("r+" if path.is_file() else "w+")
+        header = self.file.readline().strip()
+        self.keys = header.split(",") if header else []
+        self.separator, self.quotechar = ",", '"'
+        self.file.seek(0, os.SEEK_END)
+
+
+def keep_rows_up_to(path: Path, column: str, steps: int) -> None:
+    """Drop the rows of a CSV log beyond ``steps`` (they are played again from the checkpoint), atomically.
+
+    A resumed run's logs then continue the history without a gap or a repeat. A cut last line is dropped too.
+    """
+    if not path.is_file():
+        return
+    with read_error(path, f"a CSV log with a {column!r} column"):
+        rows = list(csv.reader(path.read_text().splitlines()))
+        if not rows:
+            return
+        j = rows[0].index(column)
+    kept = [rows[0]] + [row for row in rows[1:] if len(row) == len(rows[0]) and _at_most(row[j], steps)]
+    buffer = io.StringIO()
+    csv.writer(buffer, lineterminator="\n").writerows(kept)
+    atomic_write_text(path, buffer.getvalue())
+
+
+def _at_most(value: str, steps: int) -> bool:
+    try:
+        return float(value) <= steps
+    except ValueError:
+        return False
+
+
+def make_logger(out: Path, tensorboard: bool) -> Logger:
+    """``progress.csv`` (continued when it exists) and, when asked, TensorBoard under ``<out>/tensorboard``."""
+    formats: list[KVWriter] = [AppendingCSV(str(out / "progress.csv"))]
+    if tensorboard:
+        formats.append(make_output_format("tensorboard", str(out / "tensorboard")))
+    return Logger(str(out), formats)
+
+
+# --------------------------------------------------------------------------------------------------- training
 def train(cfg: TrainConfig, resume: bool = False, progress: bool = True) -> BaseAlgorithm:
-    """Build (or resume) and train; returns the model. See the module docstring for the files written."""
-    preset = load_preset(cfg.env_id, cfg.algo)
-    common, hyper = preset["common"], preset["algo"]
-    for key, value in cfg.overrides.items():
-        (common if key in common else hyper)[key] = value
+    """Build (or resume) and train; returns the model. See the module docstring for the files written.
+
+    Every argument is checked (the preset overrides, the env arguments) before anything is written. The run's
+    folder is locked while training (:class:`~uwb_env.agents.storage.FolderLock`). A folder that already holds a
+    run is refused unless ``resume``; a resumed run must match its ``run.yaml`` (``timesteps`` may grow), continues
+    its logs from the checkpoint it resumes (rows beyond it dropped) and falls back to an older checkpoint when the
+    newest is damaged.
+    """
+    common, hyper, version = resolve(cfg)
+    check_env(cfg)
     out = cfg.out
-    out.mkdir(parents=True, exist_ok=True)
     run_yaml = {
         "env_id": cfg.env_id,
         "algo": cfg.algo,
         "seed": cfg.seed,
         "timesteps": cfg.timesteps,
         "env_kwargs": cfg.env_kwargs,
-        "preset_version": preset["version"],
+        "preset_version": version,
         "common": common,
         "hyper": hyper,
     }
-    if resume and (out / "run.yaml").is_file():
-        old = yaml.safe_load((out / "run.yaml").read_text())
-        for key in ("env_id", "algo", "seed", "env_kwargs", "common", "hyper"):
-            if old.get(key) != run_yaml[key]:
-                raise ValueError(f"--resume: {key} = {run_yaml[key]!r} differs from the run's {old.get(key)!r}")
-    (out / "run.yaml").write_text(yaml.safe_dump(run_yaml, sort_keys=True))
-    ckpt = latest_checkpoint(out) if resume else None
+    with FolderLock(out, "training"):
+        meta = out / "run.yaml"
+        if meta.is_file() and not resume:
+            raise ValueError(f"{out}: already holds a training run ({meta}); use --resume or another --out")
+        if resume and meta.is_file():
+            old = _read_yaml(meta, "a training run's configuration (YAML mapping)")
+            for key in ("env_id", "algo", "seed", "env_kwargs", "common", "hyper"):
+                if old.get(key) != run_yaml[key]:
+                    raise ValueError(f"--resume: {key} = {run_yaml[key]!r} differs from the run's {old.get(key)!r}")
+        atomic_write_text(meta, yaml.safe_dump(run_yaml, sort_keys=True))
+        return _train(cfg, common, hyper, resume, progress)
+
+
+def _train(cfg: TrainConfig, common: dict, hyper: dict, resume: bool, progress: bool) -> BaseAlgorithm:
+    out = cfg.out
     normalize = common.get("normalize")
-    venv = make_vec_env(
-        cfg.env_id,
-        int(common.get("n_envs", 1)),
-        cfg.seed,
-        cfg.env_kwargs,
-        common.get("vec_env", "dummy"),
-        normalize if ckpt is None else None,  # a resumed run loads its normaliser from the checkpoint
-    )
+    venv = make_vec_env(cfg.env_id, int(common.get("n_envs", 1)), cfg.seed, cfg.env_kwargs,
+                        common.get("vec_env", "dummy"))  # fmt: skip
     cls = ALGORITHMS[cfg.algo]
-    if ckpt is not None:
-        path, steps = ckpt
-        norm = out / "checkpoints" / f"rl_model_vecnormalize_{steps}_steps.pkl"
-        if normalize:
-            venv = VecNormalize.load(str(norm), venv)
-        model = cls.load(path, env=venv, device="cpu")
-        buf = out / "checkpoints" / f"rl_model_replay_buffer_{steps}_steps.pkl"
-        if hasattr(model, "replay_buffer") and buf.is_file():
-            model.load_replay_buffer(buf)
+    restored = resume_from(cls, out, venv, bool(normalize)) if resume else None
+    if restored is not None:
+        model, venv, steps = restored
     else:
+        if resume:
+            print(f"no readable checkpoint in {out / 'checkpoints'}: training from scratch", file=sys.stderr)
+        steps = 0
+        if normalize:
+            venv = VecNormalize(venv, **normalize)
         kwargs = {k: v for k, v in hyper.items() if k != "policy"}
         model = cls(hyper.get("policy", "MlpPolicy"), venv, seed=cfg.seed, device="cpu", verbose=0, **kwargs)
-    model.set_logger(configure(str(out), ["csv"]))
+    keep_rows_up_to(out / "progress.csv", "time/total_timesteps", steps)
+    keep_rows_up_to(out / "eval.csv", "timesteps", steps)
+    model.set_logger(make_logger(out, cfg.tensorboard))
     n_envs = venv.num_envs
     callbacks: list[BaseCallback] = [
         CheckpointCallback(
@@ -344,11 +550,12 @@ def train(cfg: TrainConfig, resume: bool = False, progress: bool = True) -> Base
     if progress:
         callbacks.append(_ProgressBar(remaining))
     try:
-        model.learn(remaining, callback=CallbackList(callbacks), reset_num_timesteps=ckpt is None, progress_bar=False)
+        model.learn(remaining, callback=CallbackList(callbacks), reset_num_timesteps=restored is None,
+                    progress_bar=False)  # fmt: skip
     finally:
         model.logger.close()  # the CSV writer's file
-    model.save(out / "model.zip")
+    atomic_write(out / "model.zip", model.save)
     if isinstance(venv, VecNormalize):
-        venv.save(str(out / "vecnormalize.pkl"))
+        atomic_write(out / "vecnormalize.pkl", lambda f: pickle.dump(venv, f))
     venv.close()
     return model

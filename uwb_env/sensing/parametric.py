@@ -185,6 +185,28 @@ class EpisodeSensing:
     clutter_start: np.ndarray
 
 
+def accuracy_snr_caps(unit_covariances: list[FloatArray | None], min_range_std_m: float) -> FloatArray:
+    r"""``(W,)`` the SNR above which each waveform's measurement accuracy stops improving.
+
+    The CRLB models scale as R(SNR) = R_1 / SNR without bound, so a strong enough echo (a valid +100 dBm
+    transmitter, a target next to a receiver) gives range variances of 1e-20 m^2 and below: far under anything a
+    receiver can resolve, and under the rounding error of the tracker's covariance update (``P`` of ~1 m^2 loses
+    positive-definiteness at 1e-16 relative). A real receiver's range accuracy is floored by its timing: the
+    sampling clock's jitter and the ToA interpolation's residual error, sigma_t = ``min_range_std_m`` / c
+    (``SensingConfig.min_range_std_m``; the default 50 um is 0.17 ps, a low-jitter sampling clock, below every
+    CRLB of the built-in scenarios at their configured powers). The floor is applied as an accuracy SNR
+
+    .. math:: \mathrm{SNR}_\mathrm{acc} = \min(\mathrm{SNR}, R_1[0, 0] / \sigma_\mathrm{min}^2),
+
+    so R keeps its R_1 / SNR form (range, range-rate and the array's azimuth variance saturate together, at the
+    SNR where the range std reaches the floor) and the noise draws keep their streams. Detection (Pd) uses the
+    uncapped SNR. Waveforms whose model has its own floor (the energy detector's T_int / sqrt 12, ``unit_covariance``
+    None) get ``inf``.
+    """
+    floor = float(min_range_std_m) ** 2
+    return np.array([np.inf if u is None else float(u[0, 0]) / floor for u in unit_covariances])
+
+
 def azimuth_variance(
     snr_total: FloatArray,
     n_elements: FloatArray,
@@ -271,6 +293,7 @@ class ParametricSensor:
         area = (lay.area[1] - lay.area[0]) * (lay.area[3] - lay.area[2])
         self._clutter_total = cfg.sensing.clutter.density_per_m2 * area
         self._unit_cov = [w.unit_covariance for w in self.library.waveforms]
+        self._snr_cap = accuracy_snr_caps(self._unit_cov, cfg.sensing.min_range_std_m)
         self._geometry_cache: tuple[FloatArray, BoolArray, EpisodeGeometry] | None = None
         self._valid_plans: dict[int, tuple[ScanPlan, tuple[bool, int, bool, list[int]]]] = {}
         self._bx, self._by = np.cos(self._boresight), np.sin(self._boresight)
@@ -789,7 +812,13 @@ class ParametricSensor:
         col = _columns(m)
         snr = rows[:, col["snr"]]
         # cells with no echo are never detected; keep their rows finite (false alarms always have snr > 0)
-        safe = snr if inv_sqrt_snr is not None else np.where(snr > 0, snr, 1.0)
+        # accuracy SNR: capped where the range std reaches SensingConfig.min_range_std_m (accuracy_snr_caps)
+        cap = self._snr_cap[w]
+        if inv_sqrt_snr is None:
+            safe = np.minimum(np.where(snr > 0, snr, 1.0), cap)
+        else:
+            safe = np.minimum(snr, cap)
+            inv_sqrt_snr = np.maximum(inv_sqrt_snr, 1.0 / np.sqrt(cap))
         z0 = rows[:, 1 : 1 + m].copy()  # noise-free: the truth (targets' range-rate drives the walk below)
         if isinstance(w, np.ndarray):  # per-row waveforms, all with R = R1 / snr
             scaled = e / np.sqrt(safe)[:, None]
@@ -797,6 +826,7 @@ class ParametricSensor:
             R1 = self._unit_cov_stack[w]
             ridge = R1[:, 0, 1] / R1[:, 1, 1] if m == 2 else 0.0
             rdot_var = R1[:, 1, 1] / safe if m == 2 else None
+            range_var = R1[:, 0, 0] / safe
             wavelength = self._wavelengths[w]
         elif self._unit_chol[w] is not None:  # R = R1 / snr: noise chol(R1) e / sqrt(snr)
             L = self._unit_chol[w]
@@ -806,16 +836,17 @@ class ParametricSensor:
             R1 = self._unit_cov[w]
             ridge = R1[0, 1] / R1[1, 1] if m == 2 else 0.0
             rdot_var = R1[1, 1] / safe if m == 2 else None
+            range_var = R1[0, 0] / safe
             wavelength = self._wavelengths[w]
         else:
-            cov = R1 = self.library[w].covariance(safe)
-            safe = np.ones_like(safe)  # R1 is the covariance itself here
+            cov = self.library[w].covariance(safe)
             rows[:, 1 : 1 + m] += np.einsum("nij,nj->ni", np.linalg.cholesky(cov), e)
             ridge = cov[:, 0, 1] / cov[:, 1, 1] if m == 2 else 0.0
             rdot_var = cov[:, 1, 1] if m == 2 else None
+            range_var = cov[:, 0, 0]
             wavelength = self._wavelengths[w]
         if m == 2 and inv_sqrt_snr is None and self._migration is not None:  # target rows: the range walk
-            var0 = np.asarray(R1)[..., [0, 1], [0, 1]] / safe[:, None]  # (n, 2) the CRLB at the rows' SNR
+            var0 = np.stack(np.broadcast_arrays(range_var, rdot_var), axis=-1)  # (n, 2) the CRLB at the rows' SNR
             f = self.walk_factors(np.broadcast_to(w, safe.shape), z0[:, 1], var0)  # (n, 2)
             rows[:, 1:3] = z0 + (rows[:, 1:3] - z0) * np.sqrt(f)
             rows[:, col["walk_r"]], rows[:, col["walk_d"]] = f[:, 0], f[:, 1]
@@ -881,7 +912,7 @@ class ParametricSensor:
         rows = rows.take(np.argsort(rows[:, 0] * _KEY_SPAN + rows[:, 1]), axis=0)  # pair, then range (<< span)
         snr = rows[:, col["snr"]]
         cov = (
-            self._unit_cov[w0][None] / snr[:, None, None]
+            self._unit_cov[w0][None] / np.minimum(snr, self._snr_cap[w0])[:, None, None]
             if single
             else self._covariances(np.asarray(waveform_of_tx)[self.pairs[rows[:, 0].astype(np.int64), 0]], snr)
         )
@@ -970,7 +1001,7 @@ class ParametricSensor:
         cov = np.empty((snr.shape[0], m, m))
         for w in set(waveform_of_row.tolist()):
             sel = waveform_of_row == w
-            cov[sel] = self.library[w].covariance(snr[sel])
+            cov[sel] = self.library[w].covariance(np.minimum(snr[sel], self._snr_cap[w]))
         return cov
 
     def _validate(self, plan: ScanPlan) -> tuple[bool, int, bool, list[int]]:
@@ -1153,7 +1184,7 @@ class ParametricSensor:
         R = expected_covariance(
             az,
             ok,
-            snr,
+            np.minimum(snr, self._snr_cap[waveforms][:, None]),
             self._unit_cov_stack[waveforms],
             bool(self._doa_rx[rx]),
             float(self._boresight[rx]),
@@ -1176,7 +1207,7 @@ class ParametricSensor:
         self, rx: int, az: FloatArray, ok: BoolArray, snr: FloatArray, waveforms: IntArray
     ) -> FloatArray:
         """R ``(W, N, m, m)`` of ``expected_measurements`` from the link ``(az, ok, snr)`` of ``_mean_link`` (numpy)."""
-        safe = np.where(ok & (snr > 1.0), snr, 1.0)
+        safe = np.minimum(np.where(ok & (snr > 1.0), snr, 1.0), self._snr_cap[waveforms][:, None])
         if self._all_unit_chol:  # R = R(SNR = 1) / SNR (the CRLB models), every waveform at once
             R = (1.0 / safe)[..., None, None] * self._unit_cov_stack[waveforms][:, None]
         else:

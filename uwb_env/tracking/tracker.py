@@ -15,8 +15,12 @@ One scan (``Tracker.step``), seed 003 section 4.2, in the order data flows:
 4. initiation from the measurements that belong to no track with probability above 1/2
    (``uwb_env.tracking.initiation``);
 5. confirmation above ``confirm_existence``; deletion below ``terminate_existence``, when the position
-   uncertainty exceeds ``max_position_std_m`` (such a track no longer localises anything), or when a tentative
-   track is not confirmed within ``tentative_max_age`` scans (confirmation time-out).
+   uncertainty exceeds ``max_position_std_m`` (such a track no longer localises anything), when a tentative
+   track is not confirmed within ``tentative_max_age`` scans (confirmation time-out), or when the estimate has left
+   the surveillance area by more than the area's own width or height (a track coasting away from every sensor's
+   coverage, which existence alone ends only after tens of scans: with a fast ``max_speed_mps`` or a large process
+   noise it would otherwise leave the environments' observation bounds), or when its speed exceeds 10
+   ``max_speed_mps`` (the targets' speed limit of initiation's velocity gate: such an estimate follows no target).
 
 Every track keeps a stable id, its status, age, existence, model probabilities and model-conditioned estimates;
 ``TrackSet.combined()`` gives the IMM output. A single-model tracker with ``fixed_existence`` is seed 003's
@@ -252,10 +256,14 @@ class Tracker:
         self._initiate(unused, time_s, scan_index)
         t = self.tracks
         t.confirmed = t.confirmed | (t.existence >= cfg.confirm_existence)
-        _, P = t.combined()
+        x, P = t.combined()
         lost = P[:, 0, 0] + P[:, 2, 2] > 2.0 * cfg.max_position_std_m**2  # position-covariance trace
         stale = ~t.confirmed & (t.age >= cfg.tentative_max_age)  # confirmation time-out
-        keep = (t.existence >= cfg.terminate_existence) & ~lost & ~stale
+        x0, x1, y0, y1 = self.area
+        width, height = x1 - x0, y1 - y0
+        gone = (np.abs(x[:, 0] - (x0 + x1) / 2) > 1.5 * width) | (np.abs(x[:, 2] - (y0 + y1) / 2) > 1.5 * height)
+        gone |= x[:, 1] ** 2 + x[:, 3] ** 2 > (10.0 * cfg.max_speed_mps) ** 2  # no target is that fast
+        keep = (t.existence >= cfg.terminate_existence) & ~lost & ~stale & ~gone
         if not keep.all():
             self.tracks = t.select(keep)
         return self.tracks

@@ -597,9 +597,14 @@ class ChirpSignalSensor(ParametricModelHooks):
         )
 
     def covariance(self, R: FloatArray, w: int) -> FloatArray:
-        """``(n, 2, 2)`` the fitted variances with the waveform's range-range-rate correlation (module docstring)."""
-        out = R.copy()
-        c = self._correlation[w] * np.sqrt(R[:, 0, 0] * R[:, 1, 1])
+        """``(n, 2, 2)`` the fitted variances with the waveform's range-range-rate correlation (module docstring).
+
+        Both variances are scaled up together where the range std is below ``SensingConfig.min_range_std_m``: the
+        parametric model's accuracy floor (``uwb_env.sensing.parametric.accuracy_snr_caps``) at the fitted SNR.
+        """
+        floor = self.cfg.sensing.min_range_std_m**2
+        out = R * np.maximum(1.0, floor / np.maximum(R[:, 0, 0], 1e-300))[:, None, None]
+        c = self._correlation[w] * np.sqrt(out[:, 0, 0] * out[:, 1, 1])
         out[:, 0, 1] = out[:, 1, 0] = c
         return out
 
