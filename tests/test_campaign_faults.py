@@ -245,3 +245,26 @@ def test_relative_difference_keeps_the_sign_for_a_negative_baseline():
     assert relative(50.0, -100.0) == "+50.0 %"
     assert relative(-0.1, 0.5) == "-20.0 %"
     assert relative(1.0, 0.0) == "-" and relative(1.0, float("nan")) == "-"
+
+
+def test_an_interrupt_in_a_serial_campaign_summarises_the_finished_paired_runs(tmp_path, small, monkeypatch):
+    """workers=1: Ctrl-C while the 5th run plays (seeds 0 and 1 finished by both schemes) -> their summary."""
+    import uwb_env.agents.campaign as campaign_module
+    from uwb_env.agents.summary import CampaignInterrupted, evaluate
+
+    real, calls = campaign_module.play, []
+
+    def play(*args):
+        calls.append(1)
+        if len(calls) == 5:
+            raise KeyboardInterrupt
+        return real(*args)
+
+    monkeypatch.setattr(campaign_module, "play", play)
+    with pytest.raises(CampaignInterrupted, match="interrupted with 1 of 3 paired runs finished") as e:
+        evaluate(_small(), tmp_path, workers=1, progress=False)
+    # runs play scheme by scheme: myopic 0, 1, 2, then round-robin 0 (the 5th call is round-robin 1)
+    assert "**Interrupted: 1 of 3 paired runs finished" in e.value.summary
+    assert (tmp_path / "summary.md").read_text() == e.value.summary
+    monkeypatch.setattr(campaign_module, "play", real)
+    assert evaluate(_small(), tmp_path, workers=1, progress=False) == small[1]

@@ -151,3 +151,9 @@ def test_default_observation_is_normalised_on_the_scenarios_typical_range(env_id
     scale = np.quantile(x, 0.99, axis=0)
     varying = scale[np.array(obs).std(axis=0) > 0]
     assert varying.max() <= 100.0 * np.median(varying)
+
+
+def test_the_command_line_names_every_algorithm_without_importing_torch():
+    from uwb_env.agents.cli import ALGORITHM_NAMES
+
+    assert ALGORITHM_NAMES == tuple(sorted(ALGORITHMS))
