@@ -92,7 +92,11 @@ def test_a_second_campaign_on_the_same_folder_is_refused_and_the_first_finishes_
     out = tmp_path / "c"
     first = _start(_args(out, 8, LONG))
     _wait_runs(out, 1, first)
-    second = _run(_args(out, 8, LONG))
+    os.killpg(first.pid, signal.SIGSTOP)  # paused while holding the lock: the second surely meets a running first
+    try:
+        second = _run(_args(out, 8, LONG))
+    finally:
+        os.killpg(first.pid, signal.SIGCONT)
     assert second.returncode == 2
     assert f"{out}: another campaign (pid {first.pid}) is running on this folder" in second.stderr
     _, stderr = first.communicate(timeout=300)
