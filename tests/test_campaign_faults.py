@@ -107,11 +107,15 @@ def test_a_second_campaign_on_the_same_folder_is_refused_and_the_first_finishes_
         assert p.is_dir() or (p.suffix == ".csv" and not p.name.startswith(".")), p
 
 
-def test_ctrl_c_stops_the_workers_at_once_writes_the_summary_of_finished_runs_and_resumes(tmp_path, reference):
+@pytest.mark.parametrize("how", ["Ctrl-C to the group", "SIGTERM to the campaign"])
+def test_ctrl_c_stops_the_workers_at_once_writes_the_summary_of_finished_runs_and_resumes(tmp_path, reference, how):
     out = tmp_path / "c"
     proc = _start(_args(out, 8, LONG))
     _wait_runs(out, 4, proc)
-    os.killpg(proc.pid, signal.SIGINT)  # what the terminal does on Ctrl-C: the whole foreground group
+    if how == "Ctrl-C to the group":
+        os.killpg(proc.pid, signal.SIGINT)  # what the terminal does on Ctrl-C: the whole foreground group
+    else:
+        proc.terminate()  # SIGTERM to the main process only (a scheduler's or a user's kill)
     t0 = time.monotonic()
     stdout, stderr = proc.communicate(timeout=60)
     assert time.monotonic() - t0 < 15  # workers terminated, queued runs cancelled (not the 16 runs played out)
