@@ -392,7 +392,7 @@ def run_campaign(campaign: Campaign, out: pathlib.Path, workers: int = 1, progre
     check_workers(workers)
     layouts = preflight(campaign)
     with FolderLock(out, "campaign"):
-        remove_stale_temporaries(out)
+        remove_stale_temporaries([out, *(out / "runs").glob("*/")])  # the folders a campaign writes in
         write_definition(campaign, out)
         jobs = missing_runs(campaign, out, layouts)
         with tqdm(total=len(jobs), desc="runs", unit="run", disable=not progress) as bar:
