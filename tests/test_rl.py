@@ -144,7 +144,8 @@ def test_default_observation_is_normalised_on_the_scenarios_typical_range(env_id
         agent.reset(seed)
         done = False
         while not done:
-            o, _, done, _, _ = env.step(agent.act(o, env))
+            o, _, terminated, truncated, _ = env.step(agent.act(o, env))
+            done = terminated or truncated
             obs.append(o)
     x = np.abs(np.array(obs))
     assert np.isfinite(x).all() and x.max() <= 10.0
