@@ -26,6 +26,12 @@ where it stopped, and gives the same summary as an uninterrupted one (tested, af
 a damaged run file). Every file is written atomically under a unique temporary name
 (:mod:`uwb_env.agents.storage`).
 
+Interrupts: Ctrl-C (or SIGTERM to the command) terminates the workers at once, cancels the queued runs and writes
+the summary of the seeds every scheme finished (``uwb_env.agents.summary.evaluate``). Workers die with the main
+process however it dies: on Linux through ``prctl(PR_SET_PDEATHSIG, SIGKILL)`` set in the pool's initializer
+(:func:`worker_init`), elsewhere through a thread polling the parent's pid. Only one campaign runs on a folder at
+a time (an exclusive ``flock`` on ``<out>/.lock``).
+
 Per-run metrics: ``rmse_m`` position RMSE of the confirmed tracks assigned to alive targets within the env's cover
 gate (5 m), pooled over the run; ``ospa_m`` mean OSPA (cut-off 10 m, order 2); ``confirmed`` confirmed tracks per
 scan; ``true_confirmed`` of them assigned to a target; ``false`` confirmed tracks per scan not assigned;
@@ -52,7 +58,7 @@ import threading
 import time
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from typing import Any
+from typing import IO, Any
 
 import numpy as np
 from tqdm import tqdm
@@ -239,8 +245,8 @@ def preflight(campaign: Campaign) -> dict[str, Layout]:
             raise ValueError(
                 f"env {campaign.env} with overrides {campaign.overrides} and env_kwargs {campaign.env_kwargs}: {why}"
             ) from e
-        if m := re.fullmatch(r"fixed-(\d+)", scheduler):
-            n = env.action_space.n
+        n = getattr(env.action_space, "n", None)  # Discrete spaces; fixed-K is an action index
+        if (m := re.fullmatch(r"fixed-(\d+)", scheduler)) and n is not None:
             if int(m.group(1)) >= n:
                 raise ValueError(f"scheme {scheme!r}: action {m.group(1)} must be in 0..{n - 1} on {campaign.env}")
         layouts[scheme] = Layout(int(env.cfg.n_scans), RECORD + tuple(f"mu:{m}" for m in env.sim.tracker.model_names))
@@ -251,8 +257,12 @@ def run_one(campaign: Campaign, scheme: str, seed: int, path: pathlib.Path) -> p
     """Play one (scheme, seed) and write its record atomically to ``path`` (see :mod:`uwb_env.agents.storage`)."""
     scheduler, tracker = parse_scheme(scheme)
     record, names = play(campaign_env(campaign, tracker), make_scheduler(scheduler), seed)
-    header = (",".join(names) + "\n").encode()
-    atomic_write(path, lambda f: (f.write(header), np.savetxt(f, record, delimiter=",", fmt="%.17g")))
+
+    def write(f: IO[bytes]) -> None:
+        f.write((",".join(names) + "\n").encode())
+        np.savetxt(f, record, delimiter=",", fmt="%.17g")
+
+    atomic_write(path, write)
     return path
 
 
@@ -382,7 +392,7 @@ def run_campaign(campaign: Campaign, out: pathlib.Path, workers: int = 1, progre
     check_workers(workers)
     layouts = preflight(campaign)
     with FolderLock(out, "campaign"):
-        remove_stale_temporaries(out)
+        remove_stale_temporaries([out, *(out / "runs").glob("*/")])  # the folders a campaign writes in
         write_definition(campaign, out)
         jobs = missing_runs(campaign, out, layouts)
         with tqdm(total=len(jobs), desc="runs", unit="run", disable=not progress) as bar:

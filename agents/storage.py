@@ -22,7 +22,7 @@ import os
 import pathlib
 import sys
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from typing import IO
 
 TMP_SUFFIX = ".tmp"
@@ -58,9 +58,9 @@ def atomic_write_text(path: pathlib.Path, text: str) -> pathlib.Path:
     return atomic_write(path, lambda f: f.write(text.encode()))
 
 
-def remove_stale_temporaries(folder: pathlib.Path) -> list[pathlib.Path]:
-    """Delete the ``.*.tmp`` files a killed writer left under ``folder`` (call it only under the folder's lock)."""
-    stale = sorted(folder.rglob(f".*{TMP_SUFFIX}")) if folder.is_dir() else []
+def remove_stale_temporaries(folders: Iterable[pathlib.Path]) -> list[pathlib.Path]:
+    """Delete the ``.*.tmp`` files a killed writer left in ``folders`` (not below them; only under their lock)."""
+    stale = sorted(p for folder in folders if folder.is_dir() for p in folder.glob(f".*{TMP_SUFFIX}") if p.is_file())
     for p in stale:
         p.unlink(missing_ok=True)
     return stale

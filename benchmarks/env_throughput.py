@@ -27,7 +27,8 @@ def episode_seconds(env: gym.Env, agent, seed: int) -> tuple[int, float]:
     done, steps = False, 0
     t0 = time.perf_counter()
     while not done:
-        obs, _, done, _, _ = env.step(agent.act(obs, env))
+        obs, _, terminated, truncated, _ = env.step(agent.act(obs, env))
+        done = terminated or truncated
         steps += 1
     return steps, time.perf_counter() - t0
 

@@ -274,6 +274,24 @@ def test_bad_action_is_refused_with_value_and_range(action):
     _assert_names(info.value, repr(action), "must be an integer in [0, 19]")
 
 
+@pytest.mark.parametrize(
+    ("kwargs", "exc", "parts"),
+    [
+        ({"options": {"out_of_service_rx": (1,)}}, ValueError, ["options=", "out_of_service_rx", "must be None or {}"]),
+        ({"options": {"n_scans": 5}}, ValueError, ["options=", "'n_scans': 5", "must be None or {}"]),
+        ({"seed": "1"}, TypeError, ["seed='1'", "must be an integer >= 0"]),
+        ({"seed": -1}, ValueError, ["seed=-1", "must be an integer >= 0"]),
+        ({"seed": 1.5}, TypeError, ["seed=1.5", "must be an integer >= 0"]),
+    ],
+    ids=["options-kwarg", "options-override", "seed-str", "seed-negative", "seed-float"],
+)
+def test_bad_reset_arguments_are_refused(kwargs, exc, parts):
+    env = UWBSchedulingEnv("indoor-rsn", action_kind="subset")
+    with pytest.raises(exc, match=re.escape(parts[0])) as info:
+        env.reset(**kwargs)
+    _assert_names(info.value, *parts)
+
+
 def test_step_before_reset_is_refused_clearly():
     """Before: ``AttributeError: 'Simulator' object has no attribute 'episode'`` (gym.make's OrderEnforcing wrapper
     refuses it first with ``ResetNeeded``; the env itself, e.g. built directly or unwrapped, did not)."""
@@ -312,5 +330,5 @@ def test_describe_action_refuses_an_action_outside_the_space():
 
 
 def test_the_set_holds_at_least_95_cases():
-    n = len(ENV_KEYWORDS) + 1 + len(CONFIG_VALUES) + 2 + len(YAML_FILES) + 1 + 5 + len(BAD_ACTIONS) + 4
+    n = len(ENV_KEYWORDS) + 1 + len(CONFIG_VALUES) + 2 + len(YAML_FILES) + 1 + 5 + len(BAD_ACTIONS) + 5 + 4
     assert n >= 95

@@ -92,7 +92,11 @@ def test_a_second_campaign_on_the_same_folder_is_refused_and_the_first_finishes_
     out = tmp_path / "c"
     first = _start(_args(out, 8, LONG))
     _wait_runs(out, 1, first)
-    second = _run(_args(out, 8, LONG))
+    os.killpg(first.pid, signal.SIGSTOP)  # paused while holding the lock: the second surely meets a running first
+    try:
+        second = _run(_args(out, 8, LONG))
+    finally:
+        os.killpg(first.pid, signal.SIGCONT)
     assert second.returncode == 2
     assert f"{out}: another campaign (pid {first.pid}) is running on this folder" in second.stderr
     _, stderr = first.communicate(timeout=300)
@@ -103,11 +107,15 @@ def test_a_second_campaign_on_the_same_folder_is_refused_and_the_first_finishes_
         assert p.is_dir() or (p.suffix == ".csv" and not p.name.startswith(".")), p
 
 
-def test_ctrl_c_stops_the_workers_at_once_writes_the_summary_of_finished_runs_and_resumes(tmp_path, reference):
+@pytest.mark.parametrize("how", ["Ctrl-C to the group", "SIGTERM to the campaign"])
+def test_ctrl_c_stops_the_workers_at_once_writes_the_summary_of_finished_runs_and_resumes(tmp_path, reference, how):
     out = tmp_path / "c"
     proc = _start(_args(out, 8, LONG))
     _wait_runs(out, 4, proc)
-    os.killpg(proc.pid, signal.SIGINT)  # what the terminal does on Ctrl-C: the whole foreground group
+    if how == "Ctrl-C to the group":
+        os.killpg(proc.pid, signal.SIGINT)  # what the terminal does on Ctrl-C: the whole foreground group
+    else:
+        proc.terminate()  # SIGTERM to the main process only (a scheduler's or a user's kill)
     t0 = time.monotonic()
     stdout, stderr = proc.communicate(timeout=60)
     assert time.monotonic() - t0 < 15  # workers terminated, queued runs cancelled (not the 16 runs played out)
@@ -245,3 +253,26 @@ def test_relative_difference_keeps_the_sign_for_a_negative_baseline():
     assert relative(50.0, -100.0) == "+50.0 %"
     assert relative(-0.1, 0.5) == "-20.0 %"
     assert relative(1.0, 0.0) == "-" and relative(1.0, float("nan")) == "-"
+
+
+def test_an_interrupt_in_a_serial_campaign_summarises_the_finished_paired_runs(tmp_path, small, monkeypatch):
+    """workers=1: Ctrl-C while the 5th run plays (seeds 0 and 1 finished by both schemes) -> their summary."""
+    import uwb_env.agents.campaign as campaign_module
+    from uwb_env.agents.summary import CampaignInterrupted, evaluate
+
+    real, calls = campaign_module.play, []
+
+    def play(*args):
+        calls.append(1)
+        if len(calls) == 5:
+            raise KeyboardInterrupt
+        return real(*args)
+
+    monkeypatch.setattr(campaign_module, "play", play)
+    with pytest.raises(CampaignInterrupted, match="interrupted with 1 of 3 paired runs finished") as e:
+        evaluate(_small(), tmp_path, workers=1, progress=False)
+    # runs play scheme by scheme: myopic 0, 1, 2, then round-robin 0 (the 5th call is round-robin 1)
+    assert "**Interrupted: 1 of 3 paired runs finished" in e.value.summary
+    assert (tmp_path / "summary.md").read_text() == e.value.summary
+    monkeypatch.setattr(campaign_module, "play", real)
+    assert evaluate(_small(), tmp_path, workers=1, progress=False) == small[1]

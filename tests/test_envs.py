@@ -129,12 +129,12 @@ def test_episode_length_and_dict_observation():
     env = gym.make("uwb_env/UrbanWaveform-v1", observation="dict", include_lookahead=True)
     obs, _ = env.reset(seed=2)
     assert set(obs) == {"tracks", "previous_action", "lookahead"}
-    n, done = 0, False
-    while not done:
-        obs, _, done, trunc, _ = env.step(0)
+    n, terminated, truncated = 0, False, False
+    while not (terminated or truncated):
+        obs, _, terminated, truncated, _ = env.step(0)
         n += 1
         assert env.observation_space.contains(obs)
-    assert n == 140 and not trunc
+    assert n == 140 and truncated and not terminated  # the horizon truncates
 
 
 def test_render_rgb_array():

@@ -144,10 +144,17 @@ def test_default_observation_is_normalised_on_the_scenarios_typical_range(env_id
         agent.reset(seed)
         done = False
         while not done:
-            o, _, done, _, _ = env.step(agent.act(o, env))
+            o, _, terminated, truncated, _ = env.step(agent.act(o, env))
+            done = terminated or truncated
             obs.append(o)
     x = np.abs(np.array(obs))
     assert np.isfinite(x).all() and x.max() <= 10.0
     scale = np.quantile(x, 0.99, axis=0)
     varying = scale[np.array(obs).std(axis=0) > 0]
     assert varying.max() <= 100.0 * np.median(varying)
+
+
+def test_the_command_line_names_every_algorithm_without_importing_torch():
+    from uwb_env.agents.cli import ALGORITHM_NAMES
+
+    assert ALGORITHM_NAMES == tuple(sorted(ALGORITHMS))

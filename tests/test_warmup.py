@@ -138,7 +138,8 @@ def test_multistep_lookahead_leaves_the_first_subset_and_myopic_does_not():
         done = False
         while not done:
             a = agent.act(obs, env)
-            obs, _, done, _, info = env.step(a)
+            obs, _, terminated, truncated, info = env.step(a)
+            done = terminated or truncated
             actions.append(a)
             if info["confirmed_tracks"]:
                 traces.append(info["covariance_trace"])

@@ -25,6 +25,7 @@ import csv
 import importlib.util
 import inspect
 import io
+import json
 import math
 import os
 import pickle
@@ -323,6 +324,10 @@ def check_hyper(key: str, value: Any, preset_value: Any, algo: str) -> None:
         raise ValueError(f"--hyper normalize={value!r}: must be false or a mapping of VecNormalize arguments")
     if preset_value is not None and type(preset_value) is bool and type(value) is not bool:
         raise ValueError(f"--hyper {key}={value!r}: must be true or false")
+    if isinstance(preset_value, dict) and not isinstance(value, dict):
+        raise ValueError(f"--hyper {key}={value!r}: must be a mapping, e.g. {key}={json.dumps(preset_value)}")
+    if key == "policy" and value not in ALGORITHMS[algo].policy_aliases:
+        raise ValueError(f"--hyper policy={value!r}: must be one of {sorted(ALGORITHMS[algo].policy_aliases)}")
 
 
 @dataclass
@@ -506,11 +511,11 @@ def train(cfg: TrainConfig, resume: bool = False, progress: bool = True) -> Base
             for key in ("env_id", "algo", "seed", "env_kwargs", "common", "hyper"):
                 if old.get(key) != run_yaml[key]:
                     raise ValueError(f"--resume: {key} = {run_yaml[key]!r} differs from the run's {old.get(key)!r}")
-        atomic_write_text(meta, yaml.safe_dump(run_yaml, sort_keys=True))
-        return _train(cfg, common, hyper, resume, progress)
+        return _train(cfg, common, hyper, resume, progress, yaml.safe_dump(run_yaml, sort_keys=True))
 
 
-def _train(cfg: TrainConfig, common: dict, hyper: dict, resume: bool, progress: bool) -> BaseAlgorithm:
+def _train(cfg: TrainConfig, common: dict, hyper: dict, resume: bool, progress: bool, meta: str) -> BaseAlgorithm:
+    """Build or restore the model, then write ``run.yaml`` (so a model the arguments cannot build leaves no run)."""
     out = cfg.out
     normalize = common.get("normalize")
     venv = make_vec_env(cfg.env_id, int(common.get("n_envs", 1)), cfg.seed, cfg.env_kwargs,
@@ -526,7 +531,12 @@ def _train(cfg: TrainConfig, common: dict, hyper: dict, resume: bool, progress: 
         if normalize:
             venv = VecNormalize(venv, **normalize)
         kwargs = {k: v for k, v in hyper.items() if k != "policy"}
-        model = cls(hyper.get("policy", "MlpPolicy"), venv, seed=cfg.seed, device="cpu", verbose=0, **kwargs)
+        try:
+            model = cls(hyper.get("policy", "MlpPolicy"), venv, seed=cfg.seed, device="cpu", verbose=0, **kwargs)
+        except (TypeError, ValueError, AssertionError) as e:  # SB3 asserts some of its arguments
+            venv.close()
+            raise ValueError(f"{cfg.algo} with hyper-parameters {hyper}: {type(e).__name__}: {e}") from e
+    atomic_write_text(out / "run.yaml", meta)
     keep_rows_up_to(out / "progress.csv", "time/total_timesteps", steps)
     keep_rows_up_to(out / "eval.csv", "timesteps", steps)
     model.set_logger(make_logger(out, cfg.tensorboard))

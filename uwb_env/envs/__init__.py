@@ -24,6 +24,17 @@ range migration of fast vehicles, a trade-off that depends on each track's range
 ``uwb_env.envs.scheduling``).
 
 Version history:
+    * Issue 16, in place on every id (the observation ``Box``, the action spaces, the dynamics and the rewards are
+      unchanged, so the ids are not bumped and trained policies still load and act the same): the scenario's horizon
+      ends an episode by truncation (``truncated=True``, ``terminated=False``; it was ``terminated=True``, with no
+      time in the observation); ``info`` has the same keys and shapes at every step and at ``reset``
+      (``position_errors_m`` padded with 0 to the scenario's target count, plus ``position_errors_count``), so vector
+      envs can stack it; the ``Dict`` observation keeps the ``Box``'s part order (it was sorted by key);
+      ``out_of_service_rx`` / ``unavailable_waveforms`` make ``action_masks()`` mask plans; ``render()`` returns None
+      in ``human`` mode and titles the frame with the plan; every keyword is type-checked. The scenarios' new
+      measurement-variance floor (``sensing.min_range_std_m``, 50 um) changes a reward only where an echo's range
+      CRLB falls below it: none at the registered ids' configured powers outdoors, rare scans of a person next to a
+      receiver indoors.
     * ``UrbanWaveform-v1``: seed 003's regime (range + range-rate per receiver, SNR 0.2 per pulse and element), the
       pulse train's measurement model (precise, folded range-rate), six chirps (``Discrete(6)``: the seed's four and
       two at a 7 ms PRI), DFT receive beams, the vegetation's zero-Doppler residue and multipath ghosts calibrated on

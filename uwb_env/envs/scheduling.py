@@ -28,7 +28,36 @@ Observation (flat ``Box``, default): ``n_slots`` track slots, confirmed tracks f
 (log10(lookahead cost + 1e-9 m^2) + 9) / 11 per action (0 at no cost, 0.27 at 1e-6 m^2, 0.82 at 1 m^2:
 the costs span sub-millimetre indoor covariances to metres outdoors; with receiver warm-up also the same costs as if
 every receiver were ready, the value of each subset once warm), then with receiver warm-up the ready receivers
-(0/1 each). ``observation="dict"`` gives the same parts as a ``Dict``.
+(0/1 each). ``observation="dict"`` gives the same parts as a ``Dict`` in the same order (not sorted by key), so
+``gymnasium.spaces.flatten`` of the ``Dict`` observation is the ``Box`` observation.
+
+Episode end: the scenario's fixed horizon (``n_scans`` scans) ends an episode by truncation: ``truncated=True``,
+``terminated=False`` (Gymnasium's convention for a time limit: the time is not in the observation, and nothing in the
+scene ends an episode, so an agent must bootstrap through the end). ``step()`` before ``reset()`` or after the end
+raises ``RuntimeError``.
+
+Info: the same keys and shapes at every step and at ``reset`` (so vector envs can stack them), every value a
+Python scalar or a fixed-shape float array:
+
+    scan_index                   int, the scan just played (0 at reset)
+    covariance_trace             mean trace of the confirmed tracks' position covariance [m^2] (0 without any)
+    target_covariance_trace      the same over the confirmed tracks that cover a target [m^2] (0 without any)
+    missed_targets, missed_penalty   alive targets no confirmed track covers; their reward term [m^2]
+    energy_j, energy_cost        the scan's transmitted energy [J]; its reward term
+    position_errors_m            ``(K,)`` covered targets' position errors [m], K = the scenario's targets; the first
+                                 ``position_errors_count`` entries are the errors, the rest are padding, 0 (so
+                                 ``sum(e**2)`` over the whole array is the sum over the covered targets)
+    position_errors_count        int, how many entries of ``position_errors_m`` are errors
+    ospa_m                       OSPA [m] (cut-off 2 ``cover_gate_m``, order 2)
+    confirmed_tracks, false_tracks   ints
+    model_probabilities          ``(r,)`` mean IMM mode probabilities over the confirmed tracks (zeros without any)
+
+At ``reset`` no scan has been played: every count, cost and error is 0.
+
+Action masks (``action_masks()``): with ``out_of_service_rx`` (receivers that cannot listen) the subset and joint
+plans that need one of them are invalid, and the waveform plans listen with the receivers in service only; with
+``unavailable_waveforms`` the plans that send one of them are invalid. Stepping an invalid action raises
+``ValueError``; without either keyword every plan is valid.
 """
 
 from __future__ import annotations
@@ -56,8 +85,9 @@ ACTION_KINDS = ("waveform", "subset", "joint")
 LOOKAHEAD_FLOOR_M2 = 1e-9  # floor of the log-scaled lookahead costs in the observation
 FIDELITIES = ("parametric", "signal")
 OBS_BOUND = 10.0
-"""Observation bounds: every feature is O(1) on the scenario (tracks live inside the area, deleted beyond 50 m std);
-a value outside raises rather than being clipped."""
+"""Observation bounds: every feature is O(1) on the scenario (the tracker deletes a track beyond 50 m std, one
+area-size outside the surveillance area or faster than 10 ``max_speed_mps``: ``uwb_env.tracking.tracker``); a value
+outside raises rather than being clipped."""
 
 
 MAX_SLOTS = 1024
@@ -162,7 +192,13 @@ class UWBSchedulingEnv(gym.Env):
         lookahead_q2: the lookahead's information-reduction factor: 1 (seed 003's clutter-free update, the
             default), another constant in (0, 1], or ``"pda"`` for q_2(P_D, clutter in the gate) of PDA
             (``uwb_env.tracking.reduction``).
-        render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
+        out_of_service_rx, unavailable_waveforms: receivers and waveforms (indices or names) that the scheduler
+            cannot use; they mask actions (module docstring).
+        render_mode: ``None``, ``"rgb_array"`` (``render()`` returns the frame) or ``"human"`` (shown after every
+            ``reset`` and ``step``; ``render()`` returns None).
+
+    Every keyword is checked for its type and value, without coercion (``"no"`` is not a bool, ``"8"`` and ``8.0``
+    are not ints); a bad one raises ``TypeError`` / ``ValueError`` naming the keyword, the value and what is allowed.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array", "human"], "render_fps": 4}
@@ -283,7 +319,15 @@ class UWBSchedulingEnv(gym.Env):
 
     # ------------------------------------------------------------------------------------------------- gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
-        """Draw an episode; ``seed`` seeds every stream of it (SPEC.md randomness contract)."""
+        """Draw an episode; ``seed`` seeds every stream of it (SPEC.md randomness contract).
+
+        The env takes no reset ``options``: anything but None or an empty dict raises rather than being ignored.
+        """
+        if options:
+            raise ValueError(f"options={options!r}: must be None or {{}} (this env takes no reset options)")
+        if seed is not None:
+            check_int("seed", seed, 0, None)
+            seed = int(seed)
         super().reset(seed=seed)
         if seed is None:  # draw the episode seed from the env's own generator (seeded by an earlier reset)
             seed = int(self.np_random.integers(2**63 - 1))
@@ -316,7 +360,7 @@ class UWBSchedulingEnv(gym.Env):
         reward, info = self._reward_and_info(res, a)
         if self.render_mode == "human":
             self.render()
-        return self._observation(), reward, self.sim.done, False, info
+        return self._observation(), reward, False, self.sim.done, info
 
     def action_masks(self) -> BoolArray:
         """``(n_actions,)`` which actions are valid (for masked policies: sb3-contrib's MaskablePPO, RLlib).
