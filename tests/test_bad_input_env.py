@@ -111,7 +111,7 @@ def test_joint_env_keywords_that_leave_no_plan_are_refused():
         gym.make("uwb_env/IndoorJoint-v0", unavailable_waveforms=(0, 1, 2))
     _assert_names(info.value, "(0, 1, 2)", "at least one valid plan")
     with pytest.raises(ValueError, match="out_of_service_rx") as info:
-        gym.make("uwb_env/UrbanWaveform-v1", out_of_service_rx=("rx1", "rx2"))
+        gym.make("uwb_env/UrbanWaveform-v2", out_of_service_rx=("rx1", "rx2"))
     _assert_names(info.value, "('rx1', 'rx2')", "at least one receiver in service")
 
 

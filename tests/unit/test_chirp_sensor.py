@@ -232,7 +232,7 @@ def test_signal_fidelity_confirms_tracks_on_both_vehicles_like_the_parametric_pa
 
 
 def test_urban_env_at_signal_fidelity_steps_a_whole_episode():
-    env = gym.make("uwb_env/UrbanWaveform-v1", fidelity="signal")
+    env = gym.make("uwb_env/UrbanWaveform-v2", fidelity="signal")
     obs, _ = env.reset(seed=2)
     n, done = 0, False
     while not done:

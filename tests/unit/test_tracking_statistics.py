@@ -79,21 +79,25 @@ def _turn_errors(tracker_cfg: TrackerConfig, seeds) -> FloatArray:
     return np.concatenate(err)  # nan where no confirmed track covers the target
 
 
-def test_vs_imm_holds_the_turning_target_a_single_ncv_filter_loses():
+def test_vs_imm_tracks_the_turning_target_closer_than_a_single_ncv_filter():
     """Seed 003's reason for VS-IMM: through the turn, with range and range-rate only (the seed's measurement set).
 
-    Measured (seeds 0-3): VS-IMM holds the turning vehicle in 0.91 of the turn's scans, one NCV UKF in 0.51 (its
-    track falls behind the turn and is deleted). The RMSE over the scans each keeps is no fair judge of the two (the
-    NCV filter's error counts only where it has not lost the target yet): on the scans both hold it is mixed
-    (seeds 0-3: 4.4 vs 1.8 m; seeds 4-11: 1.9 vs 2.8 m, with held shares 0.97 vs 0.73).
+    Measured (seeds 0-11): VS-IMM holds the turning vehicle in 0.92 of the turn's scans, one NCV UKF in 0.85; on the
+    scans both hold, VS-IMM's mean position error is 0.88 m against 1.37 m (RMSE 1.85 vs 1.99 m: both lose the
+    vehicle for a few scans at the turn's entry). Before the parametric model had the range walk's accuracy loss
+    (``ParametricSensor.walk_factors``: range std up to 10 % larger at 20 m/s for the 40 MHz chirps, which the
+    signal chain's spread shows), the NCV filter's gates were too tight on the approach and it lost the turn
+    (held 0.51 on seeds 0-3): that margin was an artefact of an overconfident R.
     """
     cfg = scenarios.get("urban-intersection")
-    seeds = range(4)
+    seeds = range(12)
     imm = _turn_errors(cfg.tracker, seeds)
     ncv = _turn_errors(open_loop_tracker(cfg.tracker), seeds)
     held_imm, held_ncv = np.mean(~np.isnan(imm)), np.mean(~np.isnan(ncv))
+    both = ~np.isnan(imm) & ~np.isnan(ncv)
     assert held_imm >= 0.85
-    assert held_imm - held_ncv >= 0.25
+    assert held_imm > held_ncv
+    assert np.mean(np.abs(imm[both])) <= 0.8 * np.mean(np.abs(ncv[both]))
 
 
 @pytest.mark.slow
