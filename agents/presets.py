@@ -14,7 +14,7 @@ PRESETS: dict[str, dict[str, Any]] = {
     },
     "schedulers": {
         "env": "uwb_env/UrbanWaveform-v2",
-        "schemes": ["myopic", "lookahead-3", "round-robin", "random"] + [f"fixed-{w}" for w in range(6)],
+        "schemes": ["myopic", "myopic-pd", "lookahead-3", "round-robin", "random"] + [f"fixed-{w}" for w in range(6)],
         "baseline": "myopic",
         "reference": {},
         "title": "Waveform schedulers on urban-intersection (VS-IMM / LMIPDA tracker)",
