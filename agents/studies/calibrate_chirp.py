@@ -550,7 +550,7 @@ def inside(value: float, bounds: tuple[float, float] | list[float]) -> str:
 
 def report(out: Path, res: dict, command: str, elapsed: float) -> None:
     """report.md: every number of the sections, with the command that reproduces it."""
-    L = ["# Chirp calibration: parametric path vs signal path (urban-intersection)", ""]
+    L = [f"# Chirp calibration: parametric path vs signal path ({SCENARIO})", ""]
     L += [f"Reproduce: `{command}` ({elapsed / 60:.1f} min on this machine).", ""]
     L += ["Signal path: `uwb_env.sensing.signal.chirp_sensor.ChirpSignalSensor`; parametric: `ParametricSensor` of "
           "the same scenario. Numbers are Monte Carlo estimates; binomial standard errors are given where they "
