@@ -62,6 +62,7 @@ from uwb_env.tracking.measurement import measure
 from uwb_env.tracking.reduction import gate_volume_factor, interpolate, reduction_table, table_grid
 from uwb_env.tracking.tracker import Tracker
 from uwb_env.typing import BoolArray, FloatArray
+from uwb_env.waveforms.chirp import range_migration_gain
 
 
 def scored_prediction(
@@ -309,7 +310,11 @@ def search_information(sensor: ParametricSensor, plans: Sequence[ScanPlan], max_
     lib = model.library.waveforms
     rdot = np.linspace(-max_range_rate, max_range_rate, 41)
     per_snr = np.array([float(w.covariance(np.full(1, 10.0))[0][0, 0]) * 10.0 for w in lib])  # var(r) x SNR
-    walk = model.migration_gain(np.arange(len(lib))[:, None], rdot[None]).mean(axis=1)  # (W,)
+    walk = np.array([  # (W,) the mean walk gain; impulses do not walk
+        range_migration_gain(rdot, w.range_spread_m, w.config.pri_s, w.config.n_pulses).mean()
+        if hasattr(w, "range_spread_m") else 1.0
+        for w in lib
+    ])  # fmt: skip
     table = _plan_table(plans)
     info = np.zeros(len(plans))
     for tx, rx in model.pairs.tolist():

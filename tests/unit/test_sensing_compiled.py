@@ -65,3 +65,24 @@ def test_expected_covariance_equals_the_numpy_reference(scenario):
         assert R.shape == (waveforms.size, pos.shape[0], m, m)
         np.testing.assert_array_equal(pd, pd0)
         np.testing.assert_allclose(R, R0, rtol=1e-13, atol=0)
+
+
+def test_compiled_walk_scaling_equals_the_numpy_walk_factors():
+    """``sensing.compiled.walk_gain`` / ``walk_scale`` against ``ParametricSensor.migration_gain`` / ``walk_factors``
+    on the wideband urban library, range-rates from 0 to 40 m/s (beyond the 160 MHz peaks' flat regime)."""
+    from uwb_env.sensing.compiled import walk_gain, walk_scale
+
+    s = ParametricSensor(scenarios.get("urban-intersection-wideband"))
+    w = np.arange(len(s.library))
+    rdot = np.array([0.0, -3.3, 7.5, 12.0, -19.5, 40.0])
+    gain = s.migration_gain(w[:, None], rdot[None])
+    np.testing.assert_allclose(walk_gain(w, rdot, s._migration[0], s._WALK_STEP_MPS), gain, rtol=1e-12)
+    rng = np.random.default_rng(0)
+    A = rng.standard_normal((len(w), rdot.size, 2, 2))
+    R = A @ np.swapaxes(A, -1, -2) + 0.1 * np.eye(2)
+    f = s.walk_factors(w[:, None], rdot[None], np.stack([R[..., 0, 0], R[..., 1, 1]], axis=-1))
+    d = np.sqrt(f)
+    expected = R * d[..., :, None] * d[..., None, :]
+    got = s._walk_scaled(R, w, rdot)
+    np.testing.assert_allclose(got, expected, rtol=1e-12)
+    assert (f[6:, 4] > 1.0).all()  # the 160 MHz chirps at 19.5 m/s measure worse than their bound

@@ -180,3 +180,49 @@ def expected_covariance(az, ok, snr, unit_cov, doa, boresight, n_elements, spaci
                 kk = 2.0 * math.pi * spacing * math.cos(off) / wavelengths[w]
                 R[w, n, m0, m0] = 6.0 / ((s / L) * L * (L**2 - 1.0) * kk**2)
     return R
+
+
+@_jit
+def _walk_interp(table, w, rdot, step):  # pragma: no cover - compiled
+    """Linear interpolation of ``table[w]`` at |rdot| (held beyond the grid) -- ParametricSensor._walk_lookup."""
+    x = min(abs(rdot) / step, table.shape[1] - 1.000001)
+    i = int(x)
+    t = x - i
+    return table[w, i] * (1.0 - t) + table[w, i + 1] * t
+
+
+@_jit
+def walk_gain(waveforms, rdot, gain_table, step):  # pragma: no cover - compiled
+    """``(W, N)`` range-walk power gain of waveforms ``(W,)`` at range-rates ``(N,)`` [m/s] (the tables' G)."""
+    out = np.empty((waveforms.shape[0], rdot.shape[0]))
+    for a in range(waveforms.shape[0]):
+        for n in range(rdot.shape[0]):
+            out[a, n] = _walk_interp(gain_table, waveforms[a], rdot[n], step)
+    return out
+
+
+@_jit
+def walk_scale(R, waveforms, rdot, gain, c_range, c_rate, half_dwell, period, step):  # pragma: no cover - compiled
+    """Scale the (range, range-rate) block of ``R`` ``(W, N, m, m)`` in place by the range walk's variance factors.
+
+    The compiled :meth:`ParametricSensor.walk_factors`: f_r = min(G / c_r^2, G + D^2 / (3 R_rr)),
+    f_d = clip(G / c_d^2, 1, P^2 / (12 R_dd)); R_ij -> R_ij sqrt(f_i f_j) for i, j in (range, range-rate).
+    """
+    m = R.shape[2]
+    for a in range(waveforms.shape[0]):
+        w = waveforms[a]
+        for n in range(rdot.shape[0]):
+            g = _walk_interp(gain, w, rdot[n], step)
+            c_r = max(_walk_interp(c_range, w, rdot[n], step), 1e-6)
+            c_d = max(_walk_interp(c_rate, w, rdot[n], step), 1e-6)
+            walk = abs(rdot[n]) * half_dwell[w]
+            f_r = min(g / (c_r * c_r), g + walk * walk / (3.0 * R[a, n, 0, 0]))
+            cap = max(period[w] * period[w] / (12.0 * R[a, n, 1, 1]), 1.0)
+            f_d = min(max(g / (c_d * c_d), 1.0), cap)
+            s_r, s_d = math.sqrt(f_r), math.sqrt(f_d)
+            for i in range(m):
+                d_i = s_r if i == 0 else (s_d if i == 1 else 1.0)
+                for j in range(m):
+                    d_j = s_r if j == 0 else (s_d if j == 1 else 1.0)
+                    R[a, n, i, j] *= d_i * d_j
+    return R

@@ -63,7 +63,7 @@ from uwb_env.rng import RngStreams
 from uwb_env.scene.layout import SceneLayout
 from uwb_env.scene.truth import Truth
 from uwb_env.sensing.beams import beam_gain, beam_sines
-from uwb_env.sensing.compiled import expected_covariance, mean_link
+from uwb_env.sensing.compiled import expected_covariance, mean_link, walk_gain, walk_scale
 from uwb_env.sensing.pd import detection_probability, threshold_from_pfa
 from uwb_env.sensing.protocol import register_sensor
 from uwb_env.sensing.records import Detections, ScanPlan
@@ -343,43 +343,56 @@ class ParametricSensor:
         )
         return cnr, step, pri, sigma_f, self._wavelengths.copy()
 
-    def _migration_tables(self) -> tuple[FloatArray, FloatArray] | None:
-        """Per chirp train: ``(walk scale T1 / (2 sigma_r) (W,) [s/m], pulse offsets b (W, B_max))``, or None.
+    # Range-walk tables: |range-rate| grid [m/s] (bistatic; vehicles stay far below its end, held beyond it).
+    _WALK_STEP_MPS = 0.02
+    _WALK_MAX_MPS = 120.0
 
-        b = -(B-1)/2 .. (B-1)/2 for each waveform's B, NaN-padded to the longest train
-        (``uwb_env.waveforms.chirp.range_migration_gain``).
+    def _migration_tables(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray] | None:
+        """Per chirp train, tabulated over |range-rate| (``_WALK_STEP_MPS`` up to ``_WALK_MAX_MPS``), or None.
+
+        Returns ``(gain, c_range, c_rate)`` each ``(W, G)``, the half-dwell T1 (B - 1) / 2 ``(W,)`` [s] and the
+        range-rate period ``(W,)`` [m/s] (``uwb_env.waveforms.chirp.range_migration_accuracy``, evaluated once here:
+        the lookahead asks for them every scan, for every track and waveform, and a table lookup with linear
+        interpolation costs a fraction of the B-pulse sums; its error is < 1e-5 of the values).
         """
         wfs = self.library.waveforms
         if not all(hasattr(w, "migration_gain") for w in wfs):
             return None
-        n = np.array([w.config.n_pulses for w in wfs])
-        b = np.arange(n.max())[None, :] - 0.5 * (n[:, None] - 1)
-        offsets = np.where(np.arange(n.max())[None, :] < n[:, None], b, np.nan)
-        scale = np.array([w.config.pri_s / (2.0 * w.range_spread_m) for w in wfs])
-        return scale, offsets
+        grid = np.arange(0.0, self._WALK_MAX_MPS + self._WALK_STEP_MPS, self._WALK_STEP_MPS)
+        tables = [range_migration_accuracy(grid, w.range_spread_m, w.config.pri_s, w.config.n_pulses)[:3] for w in wfs]
+        gain, c_range, c_rate = (np.stack([t[i] for t in tables]) for i in range(3))
+        half_dwell = np.array([w.config.pri_s * 0.5 * (w.config.n_pulses - 1) for w in wfs])
+        period = np.array([w.range_rate_ambiguity_mps for w in wfs])
+        return gain, c_range, c_rate, half_dwell, period
 
-    def walk_factors(self, w: IntArray, range_rate: FloatArray, var0: FloatArray) -> FloatArray:
+    def _walk_lookup(self, w: IntArray, range_rate: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """``(gain, c_range, c_rate)`` of waveforms ``w`` at ``range_rate`` [m/s] (broadcast) from the tables."""
+        gain, c_range, c_rate = self._migration[:3]
+        x = np.minimum(np.abs(np.asarray(range_rate, dtype=float)) / self._WALK_STEP_MPS, gain.shape[1] - 1.000001)
+        i = x.astype(np.int64)
+        t = x - i
+        w = np.asarray(w, dtype=np.int64)
+        return tuple(tab[w, i] * (1.0 - t) + tab[w, i + 1] * t for tab in (gain, c_range, c_rate))
+
+    def walk_factors(self, w: IntArray, range_rate: FloatArray, var0: FloatArray, lookup=None) -> FloatArray:
         """``(..., 2)`` factors of the range and range-rate variances from the range walk across each train.
 
         ``w`` and ``range_rate`` [m/s] broadcast to the rows' shape; ``var0`` ``(..., 2)`` the CRLB at the echo's
         SNR, which already carries the walk's peak loss G (:meth:`migration_gain`): the unwalked bound is G var0.
         ``uwb_env.waveforms.chirp.range_migration_accuracy``: G var0 / c^2 to first order, capped by G var0 + D^2 / 3
         in range (the estimate wanders over the walk D) and by a uniform error over the range-rate period (P^2 / 12).
+        ``lookup``: the tables' ``(gain, c_range, c_rate)`` at these arguments when the caller has them.
         """
         w = np.asarray(w, dtype=np.int64)
-        rdot = np.broadcast_to(np.asarray(range_rate, dtype=float), w.shape)
-        f = np.ones((*w.shape, 2))
         if self._migration is None:
-            return f
-        for v in np.unique(w).tolist():  # the library: a small fixed set
-            sel = w == v
-            wf = self.library[v]
-            c = wf.config
-            g, c_r, c_d, walk = range_migration_accuracy(rdot[sel], wf.range_spread_m, c.pri_s, c.n_pulses)
-            v0 = var0[sel]
-            f[sel, 0] = np.minimum(g / np.maximum(c_r, 1e-6) ** 2, g + walk**2 / (3.0 * v0[..., 0]))
-            cap = wf.range_rate_ambiguity_mps**2 / (12.0 * v0[..., 1])
-            f[sel, 1] = np.clip(g / np.maximum(c_d, 1e-6) ** 2, 1.0, np.maximum(cap, 1.0))
+            return np.ones((*np.broadcast_shapes(w.shape, np.shape(range_rate)), 2))
+        g, c_r, c_d = self._walk_lookup(w, range_rate) if lookup is None else lookup
+        walk = np.abs(range_rate) * self._migration[3][w]
+        period = self._migration[4][w]
+        f = np.empty((*np.broadcast_shapes(g.shape, var0.shape[:-1]), 2))
+        f[..., 0] = np.minimum(g / np.maximum(c_r, 1e-6) ** 2, g + walk**2 / (3.0 * var0[..., 0]))
+        cap = np.maximum(period**2 / (12.0 * var0[..., 1]), 1.0)
+        f[..., 1] = np.clip(g / np.maximum(c_d, 1e-6) ** 2, 1.0, cap)
         return f
 
     def migration_gain(self, w: IntArray, range_rate: FloatArray) -> FloatArray:
@@ -390,10 +403,7 @@ class ParametricSensor:
         """
         if self._migration is None:
             return np.ones(np.broadcast_shapes(np.shape(range_rate), np.shape(w)))
-        scale, offsets = self._migration
-        w, rdot = np.broadcast_arrays(np.asarray(w), np.asarray(range_rate, dtype=float))
-        amp = np.nanmean(np.exp(-np.square((rdot * scale[w])[..., None] * offsets[w])), axis=-1)
-        return amp * amp
+        return self._walk_lookup(w, range_rate)[0]
 
     def clutter_to_noise(self, w: IntArray, tx: IntArray, rx: IntArray, bistatic_range: FloatArray) -> FloatArray:
         """CNR(r) of the static scatterers at ``bistatic_range`` [m] (0 without static clutter); arguments broadcast."""
@@ -1160,7 +1170,7 @@ class ParametricSensor:
         """
         waveforms = np.asarray(waveforms, dtype=np.int64).reshape(-1)
         az, ok, snr, pd = self._mean_link(tx, rx, positions, waveforms, rcs_m2, swerling)
-        walk_rdot = None
+        walk = None  # the range-rates (N,) [m/s] with velocities and chirp trains
         if velocities is not None and (self._notch is not None or self._migration is not None):
             pos = np.asarray(positions, dtype=float).reshape(-1, 2)
             vel = np.asarray(velocities, dtype=float).reshape(-1, 2)
@@ -1169,8 +1179,9 @@ class ParametricSensor:
             lt, lr = np.linalg.norm(dt, axis=1), np.linalg.norm(dr, axis=1)
             rdot = np.einsum("nd,nd->n", dt / np.maximum(lt, 1e-9)[:, None] + dr / np.maximum(lr, 1e-9)[:, None], vel)
             snr = snr * self.notch_gain(waveforms[:, None], tx, rx, (lt + lr)[None], rdot[None])
-            snr = snr * self.migration_gain(waveforms[:, None], rdot[None])
-            walk_rdot = rdot
+            if self._migration is not None:  # compiled: every scan asks for it, per pair (sensing.compiled)
+                walk = rdot
+                snr = snr * walk_gain(waveforms, rdot, self._migration[0], self._WALK_STEP_MPS)
             pfa = self.cfg.sensing.false_alarm_probability
             # the detector's gain as in _mean_link: detection_gain_db and, with a clutter residue, its quadrature
             gain, weights = self._link_args(tx, rx, waveforms)[2:]  # (W, J), (J,)
@@ -1179,7 +1190,7 @@ class ParametricSensor:
             pd = np.where(ok, pd_j @ weights, 0.0)
         if not self._all_unit_chol:
             R = self._expected_covariance_reference(rx, az, ok, snr, waveforms)
-            return pd, self._walk_scaled(R, waveforms, walk_rdot)
+            return pd, self._walk_scaled(R, waveforms, walk)
         lay = self.layout
         R = expected_covariance(
             az,
@@ -1192,16 +1203,19 @@ class ParametricSensor:
             float(lay.rx_spacing_m[rx]),
             self._wavelengths[waveforms],
         )
-        return pd, self._walk_scaled(R, waveforms, walk_rdot)
+        return pd, self._walk_scaled(R, waveforms, walk)
 
     def _walk_scaled(self, R: FloatArray, waveforms: IntArray, rdot: FloatArray | None) -> FloatArray:
-        """``R`` ``(W, N, m, m)`` times the range walk's variance factors on range and range-rate (walk_factors)."""
-        if rdot is None or self._migration is None or R.shape[-1] < 2:
+        """``R`` ``(W, N, m, m)`` times the range walk's variance factors on range and range-rate (walk_factors).
+
+        Compiled (``sensing.compiled.walk_scale``); ``walk_factors`` is its numpy reference.
+        """
+        if rdot is None or R.shape[-1] < 2:
             return R
-        var0 = np.stack([R[..., 0, 0], R[..., 1, 1]], axis=-1)
-        d = np.ones(R.shape[:-1])
-        d[..., :2] = np.sqrt(self.walk_factors(np.broadcast_to(waveforms[:, None], R.shape[:2]), rdot[None], var0))
-        return R * d[..., :, None] * d[..., None, :]
+        gain, c_range, c_rate, half_dwell, period = self._migration
+        return walk_scale(
+            np.array(R, dtype=float), waveforms, rdot, gain, c_range, c_rate, half_dwell, period, self._WALK_STEP_MPS
+        )
 
     def _expected_covariance_reference(
         self, rx: int, az: FloatArray, ok: BoolArray, snr: FloatArray, waveforms: IntArray
