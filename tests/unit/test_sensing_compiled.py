@@ -83,6 +83,8 @@ def test_compiled_walk_scaling_equals_the_numpy_walk_factors():
     f = s.walk_factors(w[:, None], rdot[None], np.stack([R[..., 0, 0], R[..., 1, 1]], axis=-1))
     d = np.sqrt(f)
     expected = R * d[..., :, None] * d[..., None, :]
-    got = s._walk_scaled(R, w, rdot)
+    gain_t, c_range, c_rate, half_dwell, period = s._migration
+    got = walk_scale(R.copy(), w, rdot, gain_t, c_range, c_rate, half_dwell, period, s._WALK_STEP_MPS)
     np.testing.assert_allclose(got, expected, rtol=1e-12)
+    np.testing.assert_allclose(s._walk_scaled(R, w, rdot), expected, rtol=1e-12)  # the sensor's call of it
     assert (f[6:, 4] > 1.0).all()  # the 160 MHz chirps at 19.5 m/s measure worse than their bound
