@@ -598,3 +598,53 @@ def test_range_walk_loss_of_the_chain_is_the_migration_gain(bandwidth_hz, pri_s)
     assert np.all(chain >= 0.995 * model) and np.all(chain <= 1.02 * model)
     if bandwidth_hz == 160e6 and pri_s == 0.01:
         assert model[-1] == pytest.approx(0.19, abs=0.01)
+
+
+def test_sandwich_r_follows_the_spread_of_a_walked_160_mhz_peak():
+    """A 160 MHz chirp walking 15 m/s (+-1.8 m over the dwell, sigma_r 0.6 m): the fit sees a flatter peak than the
+    matched one. The curvature-only R reports a fraction of the spread (the tracker would be overconfident); the
+    sandwich R with the train's M_0 (``delay_doppler.measure_peaks(matched=...)``) is conservative by a stable ~20 %
+    (the fit's vertex must lie in its window, which clips the flat peak's largest errors). Same 300 noisy images for
+    both, image SNR 30 dB. Measured sqrt(R) / spread (range, range-rate): sandwich 1.27, 1.19 (at 10 m/s 1.21,
+    1.17); curvature-only 0.43, 0.78 (at 10 m/s 0.84, 0.98). Sampling error of a std from 300 draws: 4 %.
+    """
+    rng = np.random.default_rng(21)
+    rdot = 15.0
+    wf = ChirpWaveformConfig("w", 1.375e-6, 160e6, 4e9, "up", 25, 0.01)
+    grid = cc.chirp_grid(wf, [5.0], 300.0)
+    axes = grid.axes(0)
+    m0 = cc.pulse_train_information(grid)
+    ph = cc.element_phases(np.array([2.27]), 2.27, 3, 0.0375, LAM)
+
+    def image(a):
+        amp, gain = cc.output_amplitudes(a, ph, np.ones(3))
+        n = len(a)
+        z = cc.matched_filter_spectra(
+            grid, np.zeros(n, np.int64), np.full(n, 155.6), np.full(n, rdot), amp, static=None,
+            noise_psd_w_per_hz=1.0, noise_gain=gain, rng=rng,
+        )  # fmt: skip
+        return np.abs(cc.delay_doppler_images(grid, z))[0, 0]
+
+    bg = dd.background_model(np.array([image(np.zeros(0)) for _ in range(8)]))
+    thr = dd.detection_threshold(bg, 1e-6)
+    a_mag = math.sqrt(1000.0 / (25 * grid.band_energy * 3))
+    z, r_sandwich, r_curvature = [], [], []
+    for _ in range(300):
+        img = image(a_mag * np.exp(1j * rng.uniform(-np.pi, np.pi, 1)))
+        with_m0 = dd.detect_delay_doppler(img, bg, axes, threshold=thr, matched=m0)
+        plain = dd.detect_delay_doppler(img, bg, axes, threshold=thr)
+        if not len(with_m0):
+            continue
+        i = int(np.argmax(with_m0.snr))
+        z.append(with_m0.z[i])
+        r_sandwich.append(with_m0.R[i])
+        r_curvature.append(plain.R[i])
+    z = np.array(z)
+    z[:, 1] = (z[:, 1] - rdot + LAM / 0.02) % (LAM / 0.01) - LAM / 0.02  # folded range-rate error
+    spread = z.std(axis=0, ddof=1)
+    sandwich = np.sqrt(np.diag(np.mean(r_sandwich, axis=0)))
+    curvature = np.sqrt(np.diag(np.mean(r_curvature, axis=0)))
+    assert np.all((sandwich / spread > 1.0) & (sandwich / spread < 1.4)), sandwich / spread
+    assert curvature[0] / spread[0] < 0.55  # the defect the sandwich mends
+
+

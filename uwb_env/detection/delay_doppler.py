@@ -65,6 +65,11 @@ is J = 2 SNR M with SNR = a0^2 / sigma^2 (Kershaw and Evans; ``chirp_chain.pulse
   Gaussian of standard deviation s cells the fitted curvature is low by ~h^2 / (4 s^2) along that axis and the
   window's other rows lower it further (12-21 % low at the default chirp image, against 0.5-4 % for the log fit).
 * (Fitting the power: H_P = -2 a0^2 M and R = -sigma^2 H_P^-1.)
+* A peak flatter than the matched one (a target whose range walks across the dwell, which the filter does not
+  follow: ``uwb_env.waveforms.chirp``): the error is -H_s^-1 grad n to first order, the signal's fitted curvature
+  H_s = -M_fit but the noise gradient that of the matched filter, var(grad n) ~ M_0. The sandwich
+  R = (sigma^2 / (2 a0^2)) M_fit^-1 M_0 M_fit^-1 (``matched=M_0``) is then the covariance; the curvature-only R
+  above assumes M_fit = M_0 and, for a 160 MHz chirp's peak walked over 2-5 cells, reports 0.24-0.4 of the spread.
 
 The measurement is z = (c tau, -lambda nu) (bistatic range [m]; range-rate folded into
 (-lambda / (2 T1), lambda / (2 T1)]), so R = U R_(tau, nu) U^T, U = diag(c, -lambda).
@@ -407,13 +412,21 @@ def fit_peaks(
 
 
 def measure_peaks(
-    fit: PeakFit, rows: IntArray, cols: IntArray, background: BackgroundModel, axes: DelayDopplerAxes
+    fit: PeakFit,
+    rows: IntArray,
+    cols: IntArray,
+    background: BackgroundModel,
+    axes: DelayDopplerAxes,
+    matched: FloatArray | None = None,
 ) -> DelayDopplerDetections:
     """Range, folded range-rate, R from the curvature and SNR of fitted peaks (module docstring).
 
     Args:
         fit: :func:`fit_peaks` (only rows with ``fit.ok`` are measured); rows, cols: ``(n,)`` the peak cells;
-        background: the pair's :class:`BackgroundModel`; axes: its :class:`DelayDopplerAxes`.
+        background: the pair's :class:`BackgroundModel`; axes: its :class:`DelayDopplerAxes`; matched: the
+        waveform's matched second-moment matrix M_0 ``(2, 2)`` in (tau [s], nu [Hz]) (``chirp_chain.
+        pulse_train_information``), for the sandwich R of peaks flatter than the matched one (module docstring);
+        None: R from the curvature alone.
 
     Returns:
         :class:`DelayDopplerDetections` of the good fits (origin = ORIGIN_NOISE).
@@ -431,7 +444,14 @@ def measure_peaks(
     hinv = np.stack([h[:, 1, 1], -h[:, 0, 1], -h[:, 0, 1], h[:, 0, 0]], axis=1).reshape(-1, 2, 2) / det[:, None, None]
     u = np.array([_C * axes.delay_step_s, -axes.wavelength_m * axes.doppler_step_hz])  # U D
     scale = background.noise_power / (2.0 * (a0 * a0 if fit.log else a0))
-    cov = -scale[:, None, None] * hinv * (u[:, None] * u[None, :])
+    if matched is None:
+        cov = -scale[:, None, None] * hinv * (u[:, None] * u[None, :])
+    else:  # sandwich: (sigma^2 / (2 a0^2)) M_fit^-1 M_0 M_fit^-1, M_fit = -H (log) or -H / a0, in cells
+        d = np.array([axes.delay_step_s, axes.doppler_step_hz])
+        m0 = np.asarray(matched, dtype=float) * (d[:, None] * d[None, :])
+        m_fit_inv = -hinv * (1.0 if fit.log else a0[:, None, None])
+        cells = (background.noise_power / (2.0 * a0 * a0))[:, None, None] * (m_fit_inv @ m0 @ m_fit_inv)
+        cov = cells * (u[:, None] * u[None, :])
     n = r.shape[0]
     return DelayDopplerDetections(
         range_m=_C * delay,
@@ -457,6 +477,7 @@ def detect_delay_doppler(
     half_window: tuple[int, int] = (1, 1),
     guard: tuple[int, int] | None = None,
     log: bool = True,
+    matched: FloatArray | None = None,
 ) -> DelayDopplerDetections:
     """The whole section 4.1 chain on one pair's magnitude image: subtract, threshold, peaks, fits, measurements.
 
@@ -465,7 +486,8 @@ def detect_delay_doppler(
         :class:`DelayDopplerAxes`; false_alarm_probability: per cell (sets the threshold with
         :func:`detection_threshold`) unless ``threshold`` ``(n_delay, n_doppler)`` is given (precompute it once per
         episode: it depends only on the background); max_peaks; half_window: fit window; guard: suppression
-        (rows, cols), default one resolution cell; log: fit the log-magnitude (default) or the magnitude.
+        (rows, cols), default one resolution cell; log: fit the log-magnitude (default) or the magnitude; matched:
+        M_0 of :func:`measure_peaks` (the sandwich R).
 
     Returns:
         :class:`DelayDopplerDetections` (origin unset: :func:`truth_origin`).
@@ -478,7 +500,7 @@ def detect_delay_doppler(
     gr, gc = axes.guard_cells if guard is None else guard
     rows, cols = find_peaks(a_k, threshold, guard_delay=gr, guard_doppler=gc, max_peaks=max_peaks, edge=half_window[0])
     fit = fit_peaks(a_k, rows, cols, level=background.mean_magnitude[rows, cols], half_window=half_window, log=log)
-    return measure_peaks(fit, rows, cols, background, axes)
+    return measure_peaks(fit, rows, cols, background, axes, matched)
 
 
 def truth_origin(

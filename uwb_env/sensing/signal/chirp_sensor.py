@@ -41,7 +41,9 @@ Choices (the seed leaves them open; each one is shared with the parametric model
 * Clutter map: a detection's ``clutter_intensity`` is the false-peak density of its pair and waveform, uniform in
   (range, folded range-rate): the expected false peaks per scan ``false_peak_factor(Pfa)`` x Pfa x searched cells x
   beams (measured on urban-intersection, ``scripts/calibrate_chirp.py``) over the gate's range x the period.
-* Covariance: the fitted curvature gives each detection's range and range-rate variances; their correlation is
+* Covariance: the fitted curvature and the train's matched second moments give each detection's range and
+  range-rate variances (the sandwich R of ``delay_doppler``: right also for a peak flattened by the range walk);
+  their correlation is
   the waveform's (``ChirpWaveform.covariance``: 1e-5 for the seed's trains). The fitted cross-curvature of a 3 x 3
   window is noise at these SNRs (correlations of +-0.1, i.e. ridge slopes R_rd / R_dd of +-1 m per m/s given the
   cells' 1.9 m x 0.075 m/s aspect), and the tracker reads that slope as the delay-Doppler ridge (initiation).
@@ -260,6 +262,8 @@ class ChirpSignalSensor(ParametricModelHooks):
             for w in self.library.waveforms
         ]
         self._grid_key = [(g.n_fft, g.sample_rate_hz) for g in self.grids]
+        # each train's matched second moments M_0 (band-limited): the sandwich R of walked peaks (delay_doppler)
+        self._matched = [cc.pulse_train_information(g) for g in self.grids]
         self._n_max = max(g.n_fft for g in self.grids)
         self._b_max = max(g.n_pulses for g in self.grids)
         # Paths: floors on the weakest waveform's energy; the longest path any image can hold.
@@ -528,6 +532,7 @@ class ChirpSignalSensor(ParametricModelHooks):
                     axes,
                     threshold=episode.thresholds[w][q, m],
                     max_peaks=self.sc.max_peaks,
+                    matched=self._matched[w],
                 )
                 for m in range(self.n_beams)  # beams: L, a handful
             ]
