@@ -1,4 +1,4 @@
-"""Typed, validated configuration for every knob of a scenario (SPEC.md "config.py").
+"""Typed, validated configuration for every knob of a scenario (the design's config stage).
 
 Conventions:
     * Frozen ``slots`` dataclasses; tuples, never lists, so configs are hashable and immutable.

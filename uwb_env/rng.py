@@ -1,4 +1,4 @@
-"""Named, independent random streams (SPEC.md "Randomness").
+"""Named, independent random streams (one seed, named child streams).
 
 One :class:`numpy.random.SeedSequence` per episode is split into child streams in a fixed order. The truth stream
 never depends on the actions taken, so two schedulers run on the same seed face the same targets (common random

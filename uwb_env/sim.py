@@ -1,4 +1,4 @@
-"""Simulator: one scan = plan -> truth -> sensing -> tracking (SPEC.md "One step"); no gymnasium here.
+"""Simulator: one scan = plan -> truth -> sensing -> tracking (the one-step data flow); no gymnasium here.
 
 ``Simulator.reset(seed)`` draws the episode (named streams, truth first); ``Simulator.step(plan)`` senses the next
 scan with the plan and updates the tracker, whose detection probabilities come from the sensor model at each

@@ -1,13 +1,13 @@
 r"""``UWBSchedulingEnv``: a scheduler picks the next scan's plan; the reward is minus the tracks' uncertainty.
 
-One ``step(action)`` is SPEC.md's "One step": action -> ``ScanPlan`` -> sensing -> tracking -> reward and
+One ``step(action)`` is one scan of the data flow: action -> ``ScanPlan`` -> sensing -> tracking -> reward and
 observation. The action indexes an enumerated list of plans (``self.plans``):
 
     action_kind="waveform"  every transmitter sends waveform w, every receiver listens (seed 003)
     action_kind="subset"    the k receivers of subset s listen, the fixed waveform is sent (seed 000's network)
     action_kind="joint"     waveform x subset
 
-Reward (SPEC.md step 6): minus the mean over confirmed tracks of trace(P) of the position block [m^2], minus
+Reward: minus the mean over confirmed tracks of trace(P) of the position block [m^2], minus
 ``missed_target_penalty_m2`` for every alive true target that no confirmed track covers within ``cover_gate_m``
 (otherwise a scheduler that loses every track would pay nothing), minus ``energy_cost_per_j`` times the scan's
 transmitted energy. The components are in ``info``.
@@ -319,7 +319,7 @@ class UWBSchedulingEnv(gym.Env):
 
     # ------------------------------------------------------------------------------------------------- gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
-        """Draw an episode; ``seed`` seeds every stream of it (SPEC.md randomness contract).
+        """Draw an episode; ``seed`` seeds every stream of it (the randomness contract of ``uwb_env.rng``).
 
         The env takes no reset ``options``: anything but None or an empty dict raises rather than being ignored.
         """

@@ -1,6 +1,6 @@
 """Episode truth: all target states on the scan grid, drawn once per episode from the truth stream.
 
-The truth is sampled whole at ``reset`` (SPEC.md step 2 then only advances an index), so it can never depend on
+The truth is sampled whole at ``reset`` (each scan's truth step then only advances an index), so it can never depend on
 the actions taken: two schedulers run on the same seed face the same targets (common random numbers).
 Scan ``k`` (k = 0 .. n_scans) is at time ``t_k = k * scan_period_s``; k = 0 is the reset instant.
 """

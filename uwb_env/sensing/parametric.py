@@ -1,4 +1,4 @@
-r"""Fast (parametric) sensing: detections drawn from calibrated models (SPEC.md "Fidelities").
+r"""Fast (parametric) sensing: detections drawn from calibrated models (the fast fidelity).
 
 For every transmitter-receiver pair and target in a scan:
 

@@ -1,6 +1,6 @@
-"""The sensing seam (STYLE.md B1): what a sensor offers, and a registry keyed by (fidelity, waveform family).
+"""The sensing seam (one seam per stage): what a sensor offers, and a registry keyed by (fidelity, waveform family).
 
-Every sensor turns the episode's truth and a scan plan into per-pair :class:`Detections` (SPEC.md "One step", item
+Every sensor turns the episode's truth and a scan plan into per-pair :class:`Detections` (the one-step data flow, item
 3), and offers the sensor model the tracker and the lookahead use (Pd, the measurement covariance and the clutter
 map at predicted positions). The simulator (``uwb_env.sim``), the env (``uwb_env.envs.scheduling``), the lookahead
 (``uwb_env.lookahead``) and the scripts use exactly the members of :class:`Sensor`; they never branch on which

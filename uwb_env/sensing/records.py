@@ -12,7 +12,7 @@ from uwb_env.typing import BoolArray, FloatArray, IntArray
 
 @dataclass(frozen=True, slots=True)
 class ScanPlan:
-    """What one scan does (SPEC.md step 1).
+    """What one scan does (step 1 of a scan).
 
     Attributes:
         waveform: ``(T,)`` waveform index per transmitter (into the scenario's library).
@@ -71,7 +71,7 @@ class ScanPlan:
 
 @dataclass(slots=True)
 class Detections:
-    """Detections of one transmitter-receiver pair in one scan (SPEC.md step 3).
+    """Detections of one transmitter-receiver pair in one scan (step 3 of a scan).
 
     Rows are sorted by bistatic range, so the order reveals nothing about their origin.
 

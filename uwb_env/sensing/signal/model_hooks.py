@@ -1,8 +1,8 @@
 """The sensor model of a signal-level sensor: its calibrated parametric model's (``self.model``).
 
 A signal sensor synthesises the detections, but the tracker's Pd and the lookahead's Pd, R and clutter map come from
-the parametric model of the same scenario (SPEC.md "Fidelities"). Both signal sensors inherit these four forwarding
-methods of the ``Sensor`` protocol instead of repeating them.
+the parametric model of the same scenario (both fidelities share one sensor model). Both signal sensors inherit these
+four forwarding methods of the ``Sensor`` protocol instead of repeating them.
 """
 
 from __future__ import annotations
