@@ -113,7 +113,6 @@ def expected_posterior(
         return Pa
     cfg = tracker.cfg
     table = _plan_table(plans)
-    pos = x[:, 0:3:2]  # (x, y)
     for tx, rx in sensor.pairs.tolist():
         if delivering is None:
             used, sent, which, every = table.pair_waveforms(tx, rx)
@@ -126,9 +125,7 @@ def expected_posterior(
             continue
         names = sensor.measurement_names(rx)
         m = len(names)
-        pd_w, R_w = sensor.expected_measurements(
-            tx, rx, pos, sent, cfg.assumed_rcs_m2, cfg.assumed_swerling, velocities=x[:, 1:4:2]
-        )
+        pd_w, R_w = _pair_model(sensor, cfg, tx, rx, x, sent)
         if cfg.range_rate_noise_floor_mps > 0.0 and "range_rate" in sensor.measurement_names(rx):
             d = sensor.measurement_names(rx).index("range_rate")
             R_w = R_w.copy()
@@ -136,11 +133,11 @@ def expected_posterior(
         period = np.full(A, np.inf)  # each plan's range-rate period at this pair (tracking.ambiguity)
         period[used] = sensor.library.range_rate_periods[table.waveforms[used, tx]]
         if every:  # plan a sends waveform sent[a]: no scatter
-            pd, R = np.minimum(pd_w, cfg.max_detection_probability), R_w
+            pd, R = pd_w, R_w
         else:
             pd = np.zeros((A, N))
             R = np.zeros((A, N, m, m))
-            pd[used] = np.minimum(pd_w[which], cfg.max_detection_probability)
+            pd[used] = pd_w[which]
             R[used] = R_w[which]
         if delivering is not None:
             pd = pd * delivering[:, :, rx]
@@ -272,6 +269,18 @@ def lookahead_costs(
     return position_trace(expected_posterior(x, P, sensor, tracker, plans, q2, delivering)).sum(axis=1) / x.shape[0]
 
 
+def _pair_model(sensor: ParametricSensor, cfg, tx: int, rx: int, x: FloatArray, sent: np.ndarray) -> tuple:
+    """The sensor model's ``(Pd (W, N), R (W, N, m, m))`` of pair (tx, rx) for the waveforms ``sent``, at tracks x.
+
+    ``x (N, 6)``: positions and velocities (notch and range walk); the tracker's assumed RCS; Pd capped like the
+    tracker's.
+    """
+    pd, R = sensor.expected_measurements(
+        tx, rx, x[:, 0:3:2], sent, cfg.assumed_rcs_m2, cfg.assumed_swerling, velocities=x[:, 1:4:2]
+    )
+    return np.minimum(pd, cfg.max_detection_probability), R
+
+
 def detection_probabilities(
     sensor: ParametricSensor, tracker: Tracker, plans: Sequence[ScanPlan], time_s: float, scan_index: int
 ) -> FloatArray | None:
@@ -291,10 +300,7 @@ def detection_probabilities(
         used, sent, which, _ = table.pair_waveforms(tx, rx)
         if not used.any():
             continue
-        p, _ = sensor.expected_measurements(
-            tx, rx, x[:, 0:3:2], sent, cfg.assumed_rcs_m2, cfg.assumed_swerling, velocities=x[:, 1:4:2]
-        )
-        pd[used, :, q] = np.minimum(p[which], cfg.max_detection_probability)
+        pd[used, :, q] = _pair_model(sensor, cfg, tx, rx, x, sent)[0][which]
     return pd
 
 

@@ -374,19 +374,18 @@ class ParametricSensor:
         w = np.asarray(w, dtype=np.int64)
         return tuple(tab[w, i] * (1.0 - t) + tab[w, i + 1] * t for tab in (gain, c_range, c_rate))
 
-    def walk_factors(self, w: IntArray, range_rate: FloatArray, var0: FloatArray, lookup=None) -> FloatArray:
+    def walk_factors(self, w: IntArray, range_rate: FloatArray, var0: FloatArray) -> FloatArray:
         """``(..., 2)`` factors of the range and range-rate variances from the range walk across each train.
 
         ``w`` and ``range_rate`` [m/s] broadcast to the rows' shape; ``var0`` ``(..., 2)`` the CRLB at the echo's
         SNR, which already carries the walk's peak loss G (:meth:`migration_gain`): the unwalked bound is G var0.
         ``uwb_env.waveforms.chirp.range_migration_accuracy``: G var0 / c^2 to first order, capped by G var0 + D^2 / 3
         in range (the estimate wanders over the walk D) and by a uniform error over the range-rate period (P^2 / 12).
-        ``lookup``: the tables' ``(gain, c_range, c_rate)`` at these arguments when the caller has them.
         """
         w = np.asarray(w, dtype=np.int64)
         if self._migration is None:
             return np.ones((*np.broadcast_shapes(w.shape, np.shape(range_rate)), 2))
-        g, c_r, c_d = self._walk_lookup(w, range_rate) if lookup is None else lookup
+        g, c_r, c_d = self._walk_lookup(w, range_rate)
         walk = np.abs(range_rate) * self._migration[3][w]
         period = self._migration[4][w]
         f = np.empty((*np.broadcast_shapes(g.shape, var0.shape[:-1]), 2))
@@ -829,7 +828,8 @@ class ParametricSensor:
         else:
             safe = np.minimum(snr, cap)
             inv_sqrt_snr = np.maximum(inv_sqrt_snr, 1.0 / np.sqrt(cap))
-        z0 = rows[:, 1 : 1 + m].copy()  # noise-free: the truth (targets' range-rate drives the walk below)
+        walked = m == 2 and inv_sqrt_snr is None and self._migration is not None  # target rows of chirp trains
+        z0 = rows[:, 1 : 1 + m].copy() if walked else None  # noise-free truth: its range-rate drives the walk below
         if isinstance(w, np.ndarray):  # per-row waveforms, all with R = R1 / snr
             scaled = e / np.sqrt(safe)[:, None]
             rows[:, 1 : 1 + m] += np.einsum("nij,nj->ni", self._unit_chol_stack[w], scaled)
@@ -855,7 +855,7 @@ class ParametricSensor:
             rdot_var = cov[:, 1, 1] if m == 2 else None
             range_var = cov[:, 0, 0]
             wavelength = self._wavelengths[w]
-        if m == 2 and inv_sqrt_snr is None and self._migration is not None:  # target rows: the range walk
+        if walked:  # the range walk's accuracy loss scales the noise just added
             var0 = np.stack(np.broadcast_arrays(range_var, rdot_var), axis=-1)  # (n, 2) the CRLB at the rows' SNR
             f = self.walk_factors(np.broadcast_to(w, safe.shape), z0[:, 1], var0)  # (n, 2)
             rows[:, 1:3] = z0 + (rows[:, 1:3] - z0) * np.sqrt(f)
