@@ -878,6 +878,37 @@ SEED003_TRANSITION_ROWS = (
 
 
 @dataclass(frozen=True, slots=True)
+class PhdConfig:
+    """Seed 000's particle PHD tracker (``TrackerConfig.kind = "phd"``, ``uwb_env.tracking.phd``).
+
+    Owned by the PHD tracker's module; every field is validated here like the rest of the configuration.
+    """
+
+    particles_per_target: int = 1000
+
+    def __post_init__(self) -> None:
+        _int_at_least("PhdConfig", "particles_per_target", self.particles_per_target, 1)
+
+
+@dataclass(frozen=True, slots=True)
+class PfConfig:
+    """Seed 002's particle filter (``TrackerConfig.kind = "pf"``, ``uwb_env.tracking.pf``).
+
+    Owned by the particle filter's module; every field is validated here like the rest of the configuration.
+    """
+
+    n_particles: int = 1000
+
+    def __post_init__(self) -> None:
+        _int_at_least("PfConfig", "n_particles", self.n_particles, 1)
+
+
+TRACKER_KINDS = ("imm-lmipda", "phd", "pf")
+"""The trackers of ``uwb_env.tracking.registry``: seed 003's VS-IMM / LMIPDA (the default), seed 000's particle PHD,
+seed 002's particle filter."""
+
+
+@dataclass(frozen=True, slots=True)
 class TrackerConfig:
     """The VS-IMM / LMIPDA tracker (seed 003 section 4.2).
 
@@ -926,8 +957,14 @@ class TrackerConfig:
     assumed_swerling: int = 1
     max_detection_probability: float = 0.99
     range_rate_noise_floor_mps: float = 0.0
+    kind: Literal["imm-lmipda", "phd", "pf"] = "imm-lmipda"
+    phd: PhdConfig = PhdConfig()
+    pf: PfConfig = PfConfig()
 
     def __post_init__(self) -> None:
+        _choice("TrackerConfig", "kind", self.kind, TRACKER_KINDS)
+        _instance("TrackerConfig", "phd", self.phd, PhdConfig, "a PhdConfig")
+        _instance("TrackerConfig", "pf", self.pf, PfConfig, "a PfConfig")
         _in_range("TrackerConfig", "range_rate_noise_floor_mps", self.range_rate_noise_floor_mps, 0.0, 1e3)
         if (
             not isinstance(self.models, tuple)
