@@ -881,13 +881,85 @@ SEED003_TRANSITION_ROWS = (
 class PhdConfig:
     """Seed 000's particle PHD tracker (``TrackerConfig.kind = "phd"``, ``uwb_env.tracking.phd``).
 
-    Owned by the PHD tracker's module; every field is validated here like the rest of the configuration.
+    Seed 000 (section V-D) fixes the structure (SMC-PHD with births around each measurement, a constant particle count
+    per expected target by resampling, EM peak extraction, association to labelled tracks with an
+    unconfirmed / confirmed / silent / dead state machine) but prints none of its numbers except nu = 3; the values
+    below are ours, for indoor-rsn's walking person at 10 scans/s (``uwb_env.tracking.phd`` explains each).
+
+    Particles: ``particles_per_target`` per unit of PHD mass after resampling (at least ``min_particles``, at most
+    ``max_particles``), ``particles_per_birth`` new particles around each measurement. Birth: measurement-driven
+    (Ristic, Clark, Vo, Vo 2012) with intensity ``birth_intensity_per_m2`` in the measurement space (same units as the
+    clutter intensity: an isolated measurement is a new target with probability nu_b / (kappa + nu_b)), position from
+    the measurement's covariance, velocity N(0, ``birth_velocity_std_mps``^2 I). Prediction: survival
+    ``survival_probability`` per scan (0 beyond ``area_margin_m`` outside the surveillance area), NCV with white
+    acceleration of std ``accel_noise_std_mps2``. Detection probability from the sensor model evaluated on a grid of
+    ``pd_grid_m`` cells (0: at every particle). Ranges in, positions formed with the network chain
+    (``uwb_env.localization.locate``): ``nu``-tuples, residual at most ``max_residual_m``, 2-D clustering
+    ``linkage`` / ``cluster_distance_m``, covariance with range std ``range_std_m``, clutter intensity of the
+    formed positions ``false_position_density_per_m2`` (measured on indoor-rsn at parametric fidelity: 1.35 false
+    positions per scan over 69 m^2). EM: at most ``em_iterations`` iterations, stop below ``em_tolerance`` relative
+    change of the log-likelihood, up to ``em_extra_components`` components beyond round(mass) seeded at measurements
+    holding at least ``em_min_seed_mass`` (they absorb clutter mass; the round(mass) heaviest are the peaks).
+    Association: minimum-cost hypothesis (sum of position distances) valid as a whole when its cost is at most
+    ``max_hypothesis_cost_m``, else pair by pair in the chi-square gate of ``TrackerConfig.gate_probability``.
+    State machine: confirmed after ``confirm_updates`` consecutive updated scans (birth included), a silent track dies
+    after ``silent_max_scans`` scans without an update.
     """
 
     particles_per_target: int = 1000
+    particles_per_birth: int = 100
+    min_particles: int = 100
+    max_particles: int = 50000
+    birth_intensity_per_m2: float = 0.01
+    birth_velocity_std_mps: float = 1.5
+    survival_probability: float = 0.99
+    accel_noise_std_mps2: float = 0.5
+    area_margin_m: float = 1.0
+    pd_grid_m: float = 0.25
+    em_iterations: int = 20
+    em_tolerance: float = 1e-6
+    em_extra_components: int = 2
+    em_min_seed_mass: float = 0.05
+    max_hypothesis_cost_m: float = 1.0
+    confirm_updates: int = 3
+    silent_max_scans: int = 10
+    nu: int = 3
+    max_residual_m: float = 0.15
+    cluster_distance_m: float = 0.5
+    linkage: Literal["centroid", "single", "complete"] = "centroid"
+    range_std_m: float = 0.05
+    false_position_density_per_m2: float = 0.02
 
     def __post_init__(self) -> None:
-        _int_at_least("PhdConfig", "particles_per_target", self.particles_per_target, 1)
+        for name, lo in (
+            ("particles_per_target", 1),
+            ("particles_per_birth", 1),
+            ("min_particles", 1),
+            ("em_iterations", 1),
+            ("em_extra_components", 0),
+            ("confirm_updates", 1),
+            ("silent_max_scans", 0),
+            ("nu", 3),
+        ):
+            _int_at_least("PhdConfig", name, getattr(self, name), lo)
+        _int_at_least("PhdConfig", "max_particles", self.max_particles, self.min_particles)
+        for name in (
+            "birth_intensity_per_m2",
+            "birth_velocity_std_mps",
+            "accel_noise_std_mps2",
+            "em_tolerance",
+            "max_hypothesis_cost_m",
+            "max_residual_m",
+            "cluster_distance_m",
+            "range_std_m",
+            "false_position_density_per_m2",
+        ):
+            _positive("PhdConfig", name, getattr(self, name))
+        _in_range("PhdConfig", "survival_probability", self.survival_probability, 0.0, 1.0, closed="(]")
+        _non_negative("PhdConfig", "area_margin_m", self.area_margin_m)
+        _non_negative("PhdConfig", "pd_grid_m", self.pd_grid_m)
+        _in_range("PhdConfig", "em_min_seed_mass", self.em_min_seed_mass, 0.0, 1.0)
+        _choice("PhdConfig", "linkage", self.linkage, ("centroid", "single", "complete"))
 
 
 @dataclass(frozen=True, slots=True)
@@ -895,12 +967,68 @@ class PfConfig:
     """Seed 002's particle filter (``TrackerConfig.kind = "pf"``, ``uwb_env.tracking.pf``).
 
     Owned by the particle filter's module; every field is validated here like the rest of the configuration.
+    Defaults are the seed's (section V) where it gives one:
+
+    - ``n_particles`` N_p; ``mobility``: ``skdu`` (speed known, direction unknown, eq. 16) or ``sdl`` (speed and
+      direction learnt from the last ``sdl_window`` = N_v = 5 estimates, eqs. 17-18);
+    - ``speed_mps``: the known speed v of SKDU (the seed's person walks at 1 m/s);
+    - ``mobility_std_m``: sigma_m of the Gaussian mobility model (eq. 15); 0 (default) applies the seed's rule
+      "with probability ``mobility_containment`` = 0.9 the new position is within a circle of radius v T":
+      sigma_m = v T / sqrt(-2 ln(1 - 0.9)) = 0.093 m at T = 0.2 s (the seed's printed "1m" is read as this rule);
+    - ``likelihood``: the perception model's range std: ``snr`` (each detection's own R, the three-region
+      sigma(SNR) of the energy detector, seed 002 eq. 9), ``seed`` (the fixed sigma_p = ``perception_std_m`` =
+      0.8 m on the one-way distance, eq. 20) or ``both`` (their variances added);
+    - ``wall_bias``: the predicted range of a particle includes the walls' excess delay on its radar legs
+      (section II-D, mu_i(p)); ``respect_walls``: a move that would cross a wall segment is redrawn up to
+      ``wall_redraws`` times, then the particle stays where it was (our choice: the seed's person does not walk
+      through walls, the seed says nothing on how its PF enforces it);
+    - ``resample_threshold``: systematic resampling when the effective sample size falls below this fraction of
+      N_p; ``confirm_ess_fraction``: the track is reported confirmed while the ESS after the update is at least
+      this fraction of N_p;
+    - ``init_std_m``: the position spread of the particles drawn around each range ring of the first scan with
+      detections (0: uniform over the surveillance area, weighted by the first scan's likelihood);
+    - ``detection_probability_floor``: the smallest Pd the likelihood uses where the sensor model says 0 (a
+      detection far from the model's coverage must not annihilate every particle);
+    - ``neo_threshold_m``: the navigation error e_th at which ``uwb_env.metrics.navigation_error_outage`` is
+      quoted by default (the seed's Figs. 2-4 read their 80 % point near 1 m).
     """
 
     n_particles: int = 1000
+    mobility: Literal["skdu", "sdl"] = "skdu"
+    speed_mps: float = 1.0
+    mobility_std_m: float = 0.0
+    mobility_containment: float = 0.9
+    sdl_window: int = 5
+    likelihood: Literal["snr", "seed", "both"] = "snr"
+    perception_std_m: float = 0.8
+    wall_bias: bool = True
+    respect_walls: bool = True
+    wall_redraws: int = 3
+    resample_threshold: float = 0.5
+    confirm_ess_fraction: float = 0.05
+    init_std_m: float = 0.0
+    detection_probability_floor: float = 0.05
+    neo_threshold_m: float = 1.0
 
     def __post_init__(self) -> None:
         _int_at_least("PfConfig", "n_particles", self.n_particles, 1)
+        _choice("PfConfig", "mobility", self.mobility, ("skdu", "sdl"))
+        _in_range("PfConfig", "speed_mps", self.speed_mps, 0.0, 1e3)
+        _in_range("PfConfig", "mobility_std_m", self.mobility_std_m, 0.0, 1e3)
+        _in_range("PfConfig", "mobility_containment", self.mobility_containment, 0.0, 1.0, closed="()")
+        _int_at_least("PfConfig", "sdl_window", self.sdl_window, 1)
+        _choice("PfConfig", "likelihood", self.likelihood, ("snr", "seed", "both"))
+        _positive("PfConfig", "perception_std_m", self.perception_std_m)
+        _bool("PfConfig", "wall_bias", self.wall_bias)
+        _bool("PfConfig", "respect_walls", self.respect_walls)
+        _int_at_least("PfConfig", "wall_redraws", self.wall_redraws, 0)
+        _in_range("PfConfig", "resample_threshold", self.resample_threshold, 0.0, 1.0)
+        _in_range("PfConfig", "confirm_ess_fraction", self.confirm_ess_fraction, 0.0, 1.0)
+        _in_range("PfConfig", "init_std_m", self.init_std_m, 0.0, 1e3)
+        _in_range("PfConfig", "detection_probability_floor", self.detection_probability_floor, 0.0, 1.0)
+        _positive("PfConfig", "neo_threshold_m", self.neo_threshold_m)
+        if self.mobility_std_m == 0.0 and self.speed_mps == 0.0:
+            _fail("PfConfig", "mobility_std_m", self.mobility_std_m, "> 0 when speed_mps = 0 (the seed's rule gives 0)")
 
 
 TRACKER_KINDS = ("imm-lmipda", "phd", "pf")
