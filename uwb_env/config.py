@@ -918,7 +918,7 @@ class PhdConfig:
     pd_grid_m: float = 0.25
     em_iterations: int = 20
     em_tolerance: float = 1e-6
-    em_extra_components: int = 2
+    em_extra_components: int = 10
     em_min_seed_mass: float = 0.05
     max_hypothesis_cost_m: float = 1.0
     confirm_updates: int = 3
