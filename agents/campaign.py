@@ -7,7 +7,9 @@ The library behind ``uwb-env-evaluate`` (``uwb_env.agents.cli``; ``scripts/evalu
 
 A **scheme** is ``SCHEDULER[@TRACKER]``: the scheduler is one of ``uwb_env.agents.scheduler_names()`` (``myopic``,
 ``round-robin``, ``random``, ``fixed-K``, ``lookahead-D``), the tracker ``scenario`` (default: the scenario's
-VS-IMM / LMIPDA) or ``open-loop`` (seed 003's baseline, one NCV UKF: ``uwb_env.config.open_loop_tracker``).
+``tracker.kind``), ``open-loop`` (seed 003's baseline, one NCV UKF: ``uwb_env.config.open_loop_tracker``) or a
+tracker kind of ``uwb_env.tracking.registry``: ``imm-lmipda`` (seed 003's VS-IMM / LMIPDA), ``phd`` (seed 000's
+particle PHD), ``pf`` (seed 002's particle filter).
 Every scheme plays the same seeds ``seed0 .. seed0 + N - 1``; ``env.reset(seed)`` draws truth, clutter and noise
 from named streams and the truth never depends on actions, so differences between schemes are paired.
 
@@ -73,10 +75,10 @@ from uwb_env.agents.storage import (
     read_error,
     remove_stale_temporaries,
 )
-from uwb_env.config import apply_overrides, open_loop_tracker
+from uwb_env.config import TRACKER_KINDS, apply_overrides, open_loop_tracker
 from uwb_env.envs import ENV_IDS, UWBSchedulingEnv
 
-TRACKERS = ("scenario", "open-loop")
+TRACKERS = ("scenario", "open-loop", *TRACKER_KINDS)
 METRICS = {
     "rmse_m": "position RMSE [m]",
     "ospa_m": "OSPA [m]",
@@ -173,6 +175,8 @@ def make_env(campaign: Campaign, tracker: str) -> UWBSchedulingEnv:
     cfg = apply_overrides(scenarios.get(kwargs.pop("scenario")), campaign.overrides)
     if tracker == "open-loop":
         cfg = dataclasses.replace(cfg, tracker=open_loop_tracker(cfg.tracker))
+    elif tracker in TRACKER_KINDS:
+        cfg = dataclasses.replace(cfg, tracker=dataclasses.replace(cfg.tracker, kind=tracker))
     return UWBSchedulingEnv(cfg, **kwargs)
 
 

@@ -21,6 +21,7 @@ from uwb_env.rng import RngStreams
 from uwb_env.scene import sample_truth
 from uwb_env.sensing import ParametricSensor, ScanPlan
 from uwb_env.tracking import Tracker
+from uwb_env.tracking.reference import ReferenceTracker
 
 
 def main() -> None:
@@ -77,7 +78,8 @@ def main() -> None:
         stage.clear()
         total, n_scans, n_tracks = 0.0, 0, []
         for e, scans in enumerate(episodes):
-            tr = Tracker(cfg.tracker, lay.tx_pos, lay.rx_pos, lay.area, pd_model, backend=args.backend)
+            kind = ReferenceTracker if args.backend == "numpy" else Tracker
+            tr = kind(cfg.tracker, lay.tx_pos, lay.rx_pos, lay.area, pd_model)
             if rep == 1:
                 tr._predict = timed("predict (VS-IMM switch, mixing, Kalman)", tr._predict)
                 tr._update = timed("update (gating, LMIPDA, PDA, per receiver)", tr._update)

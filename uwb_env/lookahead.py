@@ -26,17 +26,20 @@ expected false measurements in each plan's gate, lambda_G = rho c_m gamma^(m/2) 
 clutter map at the track's predicted measurement h(x) (``ParametricSensor.clutter_intensity_at``, floored like the
 tracker's). On urban-intersection it changes the myopic scheduler's results by less than their 95 % interval.
 
-The whole computation is batched over plans x tracks, draws nothing and changes no state. With the tracker's
-compiled back end each pair's update is one numba call (``tracking.compiled.expected_update``); the numpy
-``_expected_update`` is its reference.
+The whole computation is batched over plans x tracks, draws nothing and changes no state. The lookahead reads the
+tracker only through its seam (``uwb_env.tracking.protocol``): the scored tracks' predicted Gaussians, the prediction
+between scans and each pair's expected update (``uwb_env.tracking.expectation``, one numba call; its numpy twin is in
+``uwb_env.tracking.reference``). Particle trackers give their moment-matched Gaussians, so every scheduler runs on
+every tracker.
 
 Deeper lookahead (``sequence_costs``): the same recursion over sequences of d plans, scan after scan,
 
     cost(a_1 .. a_d) = sum_l gamma^(l-1) (1 / T) sum_t trace(P^(t)_l [position block])
 
-where between scans the combined estimate is predicted by the moment-matched IMM prediction (every active model j
-from the combined (x, P): x_j = F_j x, P_j = F_j P F_j^T + Q_j, mixed with the predicted model probabilities
-mu^- = Pi^T mu and the spread of the x_j; the VS-IMM set of that scan, with the tracker's switch rule for mu).
+where between scans the combined estimate is predicted by the tracker's moment-matched prediction
+(``predict_gaussians``; for the IMM tracker every active model j from the combined (x, P): x_j = F_j x,
+P_j = F_j P F_j^T + Q_j, mixed with the predicted model probabilities mu^- = Pi^T mu and the spread of the x_j; the
+VS-IMM set of that scan, with the tracker's switch rule for mu).
 Means stay at their predictions (the expected innovation is zero). A beam of width B keeps, after every scan, the
 B cheapest partial sequences (``beam=None``: all A^d), so depth d costs A + (d - 1) B A expected updates.
 
@@ -55,28 +58,23 @@ import numpy as np
 
 from uwb_env.sensing.parametric import ParametricSensor
 from uwb_env.sensing.records import ScanPlan
-from uwb_env.tracking import ambiguity, compiled
-from uwb_env.tracking.imm import imm_combine, switch_probabilities
-from uwb_env.tracking.kernels import linearisation_error, linearised_h, symmetrise
+from uwb_env.tracking.expectation import reduction_model
 from uwb_env.tracking.measurement import measure
-from uwb_env.tracking.reduction import gate_volume_factor, interpolate, reduction_table, table_grid
-from uwb_env.tracking.tracker import Tracker
+from uwb_env.tracking.protocol import MultiTargetTracker, Prediction
 from uwb_env.typing import BoolArray, FloatArray
 from uwb_env.waveforms.chirp import range_migration_gain
 
 
 def scored_prediction(
-    tracker: Tracker, time_s: float, scan_index: int
+    tracker: MultiTargetTracker, time_s: float, scan_index: int
 ) -> tuple[FloatArray, FloatArray, FloatArray, BoolArray] | None:
-    """The tracks a lookahead scores, predicted to the next scan (pure, ``Tracker.predicted_estimates``).
+    """The tracks a lookahead scores, predicted to the next scan (pure, ``MultiTargetTracker.scored_prediction``).
 
     The confirmed ones, or every (tentative) track when none is; ``None`` without any track.
     Returns their combined ``x (N, 6)``, ``P (N, 6, 6)``, model probabilities ``(N, r)`` and model set ``(r,)``.
     """
-    confirmed = tracker.tracks.confirmed  # prediction does not change the status
-    if not confirmed.size:
-        return None
-    return tracker.predicted_estimates(time_s, scan_index, confirmed if confirmed.any() else ~confirmed)
+    pred = tracker.scored_prediction(time_s, scan_index)
+    return None if pred is None else (pred.x, pred.P, pred.mu, pred.active)
 
 
 def check_search(depth: int, beam: int | None, discount: float) -> None:
@@ -93,7 +91,7 @@ def expected_posterior(
     x: FloatArray,
     P: FloatArray,
     sensor: ParametricSensor,
-    tracker: Tracker,
+    tracker: MultiTargetTracker,
     plans: Sequence[ScanPlan],
     q2: float | str = 1.0,
     delivering: BoolArray | None = None,
@@ -141,21 +139,14 @@ def expected_posterior(
             R[used] = R_w[which]
         if delivering is not None:
             pd = pd * delivering[:, :, rx]
-        tx_pos, rx_pos = tracker.tx_pos[tx], tracker.rx_pos[rx]
+        tx_pos, rx_pos = sensor.layout.tx_pos[tx], sensor.layout.rx_pos[rx]
         rho = np.zeros((A, N))
         if q2 == "pda":  # the clutter map at the predicted measurements, floored like the tracker's
             z_pred, _ = measure(names, x, tx_pos, rx_pos)
             rho_w = np.maximum(sensor.clutter_intensity_at(tx, rx, z_pred, R_w, sent), cfg.min_clutter_intensity)
             rho[used] = rho_w[which]  # (every: which is the identity)
-        model = _reduction_model(q2, m, cfg.gate_probability)
-        if tracker.backend == "compiled":
-            kinds, wm, wc, sigma_scale, use_ukf = tracker.compiled_filter_args(names)
-            if not compiled.expected_update(
-                Pa, x, P, kinds, tx_pos, rx_pos, wm, wc, sigma_scale, use_ukf, R, pd, *model.compiled_args(rho), period
-            ):
-                raise np.linalg.LinAlgError("lookahead: a covariance is not positive definite")
-            continue
-        Pa = _expected_update(Pa, x, P, names, tx_pos, rx_pos, tracker, R, pd, model, rho, period)
+        reduction = reduction_model(q2, m, cfg.gate_probability)
+        Pa = tracker.expected_update(Pa, x, P, names, tx_pos, rx_pos, R, pd, reduction, rho, period)
     return Pa
 
 
@@ -170,86 +161,9 @@ def check_q2(q2: float | str) -> None:
         raise ValueError(f"q2={q2!r}: must be a number in (0, 1] or 'pda'")
 
 
-class _ReductionModel:
-    """q_2 of one pair's update: a constant, or the PDA table of the measurement dimension (tracking.reduction)."""
-
-    def __init__(self, q2: float | str, m: int, gate_probability: float) -> None:
-        self.constant = 1.0 if q2 == "pda" else float(q2)
-        if q2 == "pda":
-            self.table = reduction_table(m, float(gate_probability))
-            self.volume = gate_volume_factor(m, gate_probability)
-        else:
-            self.table, self.volume = _NO_TABLE, 0.0
-
-    def compiled_args(self, rho: FloatArray) -> tuple[float, FloatArray, FloatArray, FloatArray, float]:
-        """``(q2, rho, table, grid, gate_volume)`` of ``compiled.expected_update``."""
-        return self.constant, rho, self.table, _GRID, self.volume
-
-    def factor(self, pd: FloatArray, rho: FloatArray, S: FloatArray) -> FloatArray:
-        """``(A, N)`` q_2 at P_D, clutter density rho and innovation covariance S ``(A, N, m, m)``."""
-        if self.table.size == 0:
-            return np.full(pd.shape, self.constant)
-        lam = rho * self.volume * np.sqrt(np.linalg.det(S))
-        return interpolate(self.table, pd, np.log1p(lam))
-
-
-_MODELS: dict[tuple[float | str, int, float], _ReductionModel] = {}
-
-
-def _reduction_model(q2: float | str, m: int, gate_probability: float) -> _ReductionModel:
-    """The (cached, read-only) ``_ReductionModel`` of q2, measurement dimension m and gate probability."""
-    key = (q2, m, gate_probability)
-    model = _MODELS.get(key)
-    if model is None:
-        model = _MODELS[key] = _ReductionModel(q2, m, gate_probability)
-    return model
-
-
-_NO_TABLE = np.zeros((0, 0))
-_GRID = table_grid()
-
-
-def _expected_update(
-    Pa: FloatArray,
-    x: FloatArray,
-    P: FloatArray,
-    names: tuple[str, ...],
-    tx_pos: FloatArray,
-    rx_pos: FloatArray,
-    tracker: Tracker,
-    R: FloatArray,
-    pd: FloatArray,
-    model: _ReductionModel,
-    rho: FloatArray,
-    period: FloatArray | None = None,
-) -> FloatArray:
-    """One pair's expected update of ``Pa`` (A, N, 6, 6), numpy reference of ``compiled.expected_update``.
-
-    H is linearised at the predicted ``x (N, 6)``, ``P (N, 6, 6)`` by the tracker's filter; ``R (A, N, m, m)``,
-    ``pd (A, N)``, ``rho (A, N)`` the clutter density at the predicted measurement (for q_2 = "pda");
-    ``period (A,)`` each plan's range-rate period (None or inf: unambiguous): a plan whose folded range-rate the
-    prediction does not resolve gets no information from it (``tracking.ambiguity.marginalise``).
-    """
-    _, S0, C = tracker.measurement_moments(names, x, P, tx_pos, rx_pos)
-    S0, C = S0[None], C[None]  # (1 or A, N, ...): per plan where a plan's period marginalises its range-rate
-    if period is not None and "range_rate" in names and np.isfinite(period).any():
-        d = names.index("range_rate")
-        A = Pa.shape[0]
-        S0, C = np.broadcast_to(S0, (A, *S0.shape[1:])), np.broadcast_to(C, (A, *C.shape[1:]))
-        blind = ambiguity.unresolved(S0, d, period[:, None])
-        S0, C = ambiguity.marginalise(S0, C, d, period[:, None], blind)
-    H = linearised_h(P, C)  # (1 or A, N, m, 6)
-    omega = linearisation_error(S0, C, H)
-    PHt = Pa @ np.swapaxes(H, -1, -2)  # (A, N, 6, m)
-    S = H @ PHt + omega + R
-    K = np.swapaxes(np.linalg.solve(S, np.swapaxes(PHt, -1, -2)), -1, -2)
-    gain = model.factor(pd, rho, S) * pd
-    return symmetrise(Pa - gain[..., None, None] * (K @ np.swapaxes(PHt, -1, -2)))
-
-
 def lookahead_costs(
     sensor: ParametricSensor,
-    tracker: Tracker,
+    tracker: MultiTargetTracker,
     plans: Sequence[ScanPlan],
     time_s: float,
     scan_index: int,
@@ -282,7 +196,7 @@ def _pair_model(sensor: ParametricSensor, cfg, tx: int, rx: int, x: FloatArray, 
 
 
 def detection_probabilities(
-    sensor: ParametricSensor, tracker: Tracker, plans: Sequence[ScanPlan], time_s: float, scan_index: int
+    sensor: ParametricSensor, tracker: MultiTargetTracker, plans: Sequence[ScanPlan], time_s: float, scan_index: int
 ) -> FloatArray | None:
     """Expected Pd ``(A, N, Q)`` of the N confirmed tracks at the Q formed pairs under each plan (0: pair unused).
 
@@ -290,11 +204,10 @@ def detection_probabilities(
     included, ``ParametricSensor.expected_measurements``) for the assumed RCS, capped like the tracker's. ``None``
     without a confirmed track. Pure.
     """
-    confirmed = tracker.tracks.confirmed
-    if not confirmed.any():
+    pred = tracker.scored_prediction(time_s, scan_index) if tracker.tracks.confirmed.any() else None
+    if pred is None:
         return None
-    x, _, _, _ = tracker.predicted_estimates(time_s, scan_index, confirmed)
-    cfg, table = tracker.cfg, _plan_table(plans)
+    x, cfg, table = pred.x, tracker.cfg, _plan_table(plans)
     pd = np.zeros((len(plans), x.shape[0], sensor.pairs.shape[0]))
     for q, (tx, rx) in enumerate(sensor.pairs.tolist()):
         used, sent, which, _ = table.pair_waveforms(tx, rx)
@@ -386,28 +299,26 @@ def position_trace(P: FloatArray) -> FloatArray:
 
 
 def predict_combined(
-    x: FloatArray, P: FloatArray, mu: FloatArray, active: BoolArray, tracker: Tracker, dt: float, scan_index: int
+    x: FloatArray,
+    P: FloatArray,
+    mu: FloatArray,
+    active: BoolArray,
+    tracker: MultiTargetTracker,
+    dt: float,
+    scan_index: int,
 ) -> tuple[FloatArray, FloatArray, FloatArray, BoolArray]:
-    """Moment-matched IMM prediction of combined estimates (module docstring) to ``scan_index``, ``dt`` later.
+    """The tracker's moment-matched prediction of combined estimates to ``scan_index``, ``dt`` later (pure).
 
-    Args: x ``(N, 6)``, P ``(N, 6, 6)``, mu ``(N, r)`` model probabilities on the set ``active`` ``(r,)``.
-    Returns: predicted x, P, mu and the new set's mask.
+    Args: x ``(N, 6)``, P ``(N, 6, 6)``, mu ``(N, r)`` model probabilities on the set ``active`` ``(r,)``
+    (``MultiTargetTracker.predict_gaussians``). Returns: predicted x, P, mu and the new set's mask.
     """
-    mask, Pi, F, Q = tracker.prediction_models(dt, scan_index)
-    if (mask != active).any():
-        mu = switch_probabilities(np.broadcast_to(active, mu.shape), np.broadcast_to(mask, mu.shape), mu)
-    a = np.flatnonzero(mask)
-    mu_pred = np.zeros_like(mu)
-    mu_pred[:, a] = mu[:, a] @ Pi  # (N, a): mu^-_j = sum_i Pi_ij mu_i
-    xj = np.einsum("jkl,nl->njk", F, x)  # (N, a, 6)
-    Pj = F[None] @ P[:, None] @ np.swapaxes(F, -1, -2)[None] + Q[None]
-    xp, Pp = imm_combine(mu_pred[:, a], xj, Pj)
-    return xp, symmetrise(Pp), mu_pred, mask
+    pred = tracker.predict_gaussians(Prediction(x, P, mu, active), dt, scan_index)
+    return pred.x, pred.P, pred.mu, pred.active
 
 
 def sequence_costs(
     sensor: ParametricSensor,
-    tracker: Tracker,
+    tracker: MultiTargetTracker,
     plans: Sequence[ScanPlan],
     time_s: float,
     scan_index: int,

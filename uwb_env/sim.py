@@ -19,7 +19,9 @@ from uwb_env.rng import RngStreams
 from uwb_env.scene.truth import Truth, sample_truth
 from uwb_env.sensing.protocol import Sensor, make_sensor
 from uwb_env.sensing.records import Detections, ScanPlan
-from uwb_env.tracking.tracker import Tracker, TrackSet
+from uwb_env.tracking.protocol import MultiTargetTracker
+from uwb_env.tracking.registry import make_tracker
+from uwb_env.tracking.trackset import TrackSet
 from uwb_env.typing import BoolArray, FloatArray
 
 
@@ -40,8 +42,10 @@ class Simulator:
         self.cfg = cfg
         self.sensor: Sensor = make_sensor(cfg)  # the registry of (fidelity, waveform family) (sensing.protocol)
         self.tracker_cfg = tracker or cfg.tracker
-        lay = self.sensor.layout
-        self.tracker = Tracker(self.tracker_cfg, lay.tx_pos, lay.rx_pos, lay.area, self._pd if use_sensor_pd else None)
+        # the tracker of TrackerConfig.kind (uwb_env.tracking.registry), read only through its seam
+        self.tracker: MultiTargetTracker = make_tracker(
+            self.tracker_cfg, self.sensor.layout, self._pd if use_sensor_pd else None
+        )
         self._plan: ScanPlan | None = None
         self.k = 0
 
@@ -67,11 +71,11 @@ class Simulator:
         return np.minimum(pd, tc.max_detection_probability)
 
     def reset(self, seed: int | np.random.SeedSequence | None) -> None:
-        """Start an episode: named streams, truth, the sensor's episode draws, an empty tracker."""
+        """Start an episode: named streams, truth, the sensor's episode draws, an empty tracker on its stream."""
         self.rngs = RngStreams.from_seed(seed)
         self.truth: Truth = sample_truth(self.cfg, self.rngs.truth, self.sensor.layout)
         self.episode = self.sensor.new_episode(self.truth, self.rngs)
-        self.tracker.reset()
+        self.tracker.reset(self.rngs.tracker)
         self.k = 0
 
     @property

@@ -11,13 +11,16 @@ from hypothesis import strategies as st
 import uwb_env  # noqa: F401  (registers the ids)
 from uwb_env import scenarios
 from uwb_env.config import apply_overrides
-from uwb_env.lookahead import _expected_update, _ReductionModel, lookahead_costs
+from uwb_env.lookahead import lookahead_costs
 from uwb_env.rng import RngStreams
 from uwb_env.scene import sample_truth
 from uwb_env.sensing import ParametricSensor, ScanPlan
 from uwb_env.sensing.records import Detections
 from uwb_env.tracking import Tracker, UnscentedWeights, compiled, imm_combine, imm_mix, kf_predict
+from uwb_env.tracking.expectation import ReductionModel
 from uwb_env.tracking.initiation import fuse_candidates, range_azimuth_candidates, ridge_range, two_point_pairs
+from uwb_env.tracking.reference import ReferenceTracker
+from uwb_env.tracking.reference import expected_update as reference_expected_update
 
 
 def _spd(rng, *shape, n=6, scale=1.0):
@@ -103,7 +106,7 @@ def test_fused_initiation_equals_the_trackers_numpy_initiation(seed, n, n_prev, 
         clutter_intensity=np.ones(n),
         expected_false_alarms=1.0,
     )
-    ref = Tracker(tc, lay.tx_pos, lay.rx_pos, lay.area, backend="numpy")
+    ref = ReferenceTracker(tc, lay.tx_pos, lay.rx_pos, lay.area)
     ref._previous.p, ref._previous.cov, ref._previous.time_s = p0, cov0, 1.0 - dt
     ref._initiate([(det, np.ones(n, bool))], 1.0, 3)
     x, P, rest_p, rest_cov = compiled.initiate(
@@ -163,7 +166,7 @@ def test_tracker_back_ends_give_the_same_tracks(scenario, overrides):
     plans = [ScanPlan.all_listening(w, sensor.n_tx, sensor.n_rx) for w in range(len(sensor.library))]
     rngs = RngStreams.from_seed(11)
     ep = sensor.new_episode(sample_truth(cfg, rngs.truth, lay), rngs)
-    trackers = [Tracker(cfg.tracker, lay.tx_pos, lay.rx_pos, lay.area, backend=b) for b in ("numpy", "compiled")]
+    trackers = [cls(cfg.tracker, lay.tx_pos, lay.rx_pos, lay.area) for cls in (ReferenceTracker, Tracker)]
     n_scans = min(cfg.n_scans, 60)
     seen = 0
     for k in range(1, n_scans + 1):
@@ -180,12 +183,6 @@ def test_tracker_back_ends_give_the_same_tracks(scenario, overrides):
     assert seen >= 0.9 * n_scans  # tracks existed for most of the run
 
 
-def test_unknown_backend_is_rejected():
-    cfg = scenarios.get("urban-intersection")
-    with pytest.raises(ValueError, match="backend='fortran'"):
-        Tracker(cfg.tracker, np.zeros((1, 2)), np.zeros((1, 2)), np.array([0, 1, 0, 1.0]), backend="fortran")
-
-
 def test_weights_arrays_match_the_unscented_weights():
     w = UnscentedWeights(6)
     wm, wc, scale = compiled.weights_arrays(w)
@@ -196,7 +193,7 @@ def test_weights_arrays_match_the_unscented_weights():
 
 @pytest.mark.parametrize(("filt", "q2"), [("ukf", 0.7), ("ekf", 1.0), ("ukf", "pda"), ("ekf", "pda")])
 def test_expected_update_equals_the_numpy_lookahead(filt, q2):
-    """The lookahead's compiled expected update against lookahead._expected_update (and P_D = 0 leaves P)."""
+    """The lookahead's compiled expected update against its numpy twin (reference.expected_update; P_D = 0 leaves P)."""
     cfg = apply_overrides(scenarios.get("urban-intersection"), {"tracker.filter": filt})
     lay = ParametricSensor(cfg).layout
     tracker = Tracker(cfg.tracker, lay.tx_pos, lay.rx_pos, lay.area)
@@ -210,10 +207,10 @@ def test_expected_update_equals_the_numpy_lookahead(filt, q2):
     pd = rng.uniform(0.0, 1.0, (A, N))
     pd[1, 2] = 0.0
     rho = 10.0 ** rng.uniform(-3, 1, (A, N))  # from almost no clutter to several false alarms per gate
-    model = _ReductionModel(q2, 2, cfg.tracker.gate_probability)
+    model = ReductionModel(q2, 2, cfg.tracker.gate_probability)
     # folded range-rates: plans with a period the predictions do and do not resolve, and an unambiguous one
     period = np.resize(np.array([np.inf, 7.5, 0.5, 10.7]), A)
-    ref = _expected_update(Pa, x, P, names, lay.tx_pos[0], lay.rx_pos[1], tracker, R, pd, model, rho, period)
+    ref = reference_expected_update(Pa, x, P, names, lay.tx_pos[0], lay.rx_pos[1], filt, R, pd, model, rho, period)
     got = Pa.copy()
     kinds, wm, wc, scale, use_ukf = tracker.compiled_filter_args(names)
     assert use_ukf == (filt == "ukf")
@@ -228,7 +225,7 @@ def test_expected_update_equals_the_numpy_lookahead(filt, q2):
 
 
 def test_lookahead_costs_agree_across_back_ends():
-    """Myopic costs mid-episode with the compiled and the numpy tracker back ends (same tracks)."""
+    """Myopic costs mid-episode with the compiled tracker and its numpy twin holding the same tracks."""
     env = gym.make("uwb_env/UrbanWaveform-v2").unwrapped
     env.reset(seed=5)
     for k in range(30):
@@ -237,10 +234,8 @@ def test_lookahead_costs_agree_across_back_ends():
     t_s = k * env.cfg.sensing.scan_period_s
     tracker = env.sim.tracker
     fast = lookahead_costs(env.sim.sensor, tracker, env.plans, t_s, k)
-    tracker.backend = "numpy"
-    try:
-        ref = lookahead_costs(env.sim.sensor, tracker, env.plans, t_s, k)
-    finally:
-        tracker.backend = "compiled"
+    twin = ReferenceTracker(tracker.cfg, tracker.tx_pos, tracker.rx_pos, tracker.area)
+    twin.tracks, twin._time = tracker.tracks, tracker._time
+    ref = lookahead_costs(env.sim.sensor, twin, env.plans, t_s, k)
     np.testing.assert_allclose(fast, ref, rtol=1e-10)
     assert np.ptp(ref) > 1e-6 * ref.mean()  # the waveforms' costs differ: the check is not on equal numbers

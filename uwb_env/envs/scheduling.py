@@ -72,7 +72,7 @@ import numpy as np
 from gymnasium import spaces
 
 from uwb_env import scenarios
-from uwb_env.config import ScenarioConfig, apply_overrides
+from uwb_env.config import TRACKER_KINDS, ScenarioConfig, apply_overrides
 from uwb_env.envs.features import track_features
 from uwb_env.lookahead import check_q2, detection_probabilities, lookahead_costs, search_information, sequence_costs
 from uwb_env.metrics import cover_summary
@@ -184,6 +184,9 @@ class UWBSchedulingEnv(gym.Env):
             impulse radios, seed 003's delay-Doppler chain for chirp trains; ``uwb_env.sensing.protocol``); None keeps
             the scenario's ``sensing.fidelity``. With ``"signal"`` the lookahead still uses the parametric sensor
             model (per-pair Pd, R and clutter map).
+        tracker: ``"imm-lmipda"`` (seed 003's VS-IMM / LMIPDA), ``"phd"`` (seed 000's particle PHD) or ``"pf"``
+            (seed 002's particle filter) (``uwb_env.tracking.registry``); None keeps the scenario's ``tracker.kind``.
+            Same as the override ``**{"tracker.kind": ...}``.
         n_slots: track slots in the observation; observation: ``"box"`` or ``"dict"``;
         include_lookahead: append the lookahead cost of every action to the observation.
         missed_target_penalty_m2, cover_gate_m, energy_cost_per_j: reward terms (module docstring).
@@ -210,6 +213,7 @@ class UWBSchedulingEnv(gym.Env):
         subset_size: int = 3,
         fixed_waveform: int = 0,
         fidelity: str | None = None,
+        tracker: str | None = None,
         n_slots: int = 8,
         observation: str = "box",
         include_lookahead: bool = False,
@@ -230,6 +234,8 @@ class UWBSchedulingEnv(gym.Env):
         check_choice("action_kind", action_kind, ACTION_KINDS)
         if fidelity is not None:
             check_choice("fidelity", fidelity, FIDELITIES)
+        if tracker is not None:
+            check_choice("tracker", tracker, TRACKER_KINDS)
         check_choice("observation", observation, ("box", "dict"))
         if render_mode is not None:
             check_choice("render_mode", render_mode, tuple(self.metadata["render_modes"]))
@@ -245,6 +251,8 @@ class UWBSchedulingEnv(gym.Env):
         cfg = scenarios.get(scenario) if isinstance(scenario, str) else scenario
         if fidelity is not None:
             overrides = {"sensing.fidelity": fidelity, **overrides}
+        if tracker is not None:
+            overrides = {"tracker.kind": tracker, **overrides}
         self.cfg = apply_overrides(cfg, overrides) if overrides else cfg
         self._dead_rx = _node_mask(
             "out_of_service_rx", out_of_service_rx, [r.name for r in self.cfg.receivers], "receiver"
@@ -279,7 +287,7 @@ class UWBSchedulingEnv(gym.Env):
         self.lookahead_q2 = lookahead_q2
         self.render_mode = render_mode
         self.action_space = spaces.Discrete(len(self.plans))
-        self.n_models = self.sim.tracker.r
+        self.n_models = len(self.sim.tracker.model_names)
         self._n_targets = len(self.cfg.targets)  # the width of info["position_errors_m"]
         self.slot_features = 10 + self.n_models
         lay = sensor.layout

@@ -29,30 +29,14 @@ State layout everywhere: ``[x, vx, y, vy, ax, ay]`` [m, m/s, m/s^2].
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
 from uwb_env.config import TrackerConfig
 from uwb_env.sensing.records import Detections
-from uwb_env.tracking.tracker import TrackSet
-from uwb_env.typing import BoolArray, FloatArray
-
-
-@dataclass(frozen=True, slots=True)
-class Prediction:
-    """Scored tracks predicted to a scan, as Gaussians (the lookahead's input).
-
-    Attributes:
-        x: ``(N, 6)`` means; P: ``(N, 6, 6)`` covariances; mu: ``(N, r)`` model probabilities (r = 1 for a tracker
-        without a model set); active: ``(r,)`` the model set in force at that scan.
-    """
-
-    x: FloatArray
-    P: FloatArray
-    mu: FloatArray
-    active: BoolArray
+from uwb_env.tracking.trackset import Prediction, TrackSet
+from uwb_env.typing import FloatArray
 
 
 @runtime_checkable

@@ -33,7 +33,6 @@ e.g. the parametric sensor's radar equation at the predicted position); otherwis
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -41,88 +40,29 @@ import numpy as np
 from scipy.stats import chi2
 
 from uwb_env.config import TrackerConfig
+from uwb_env.scene.layout import SceneLayout
 from uwb_env.scene.motion_models import model_transition, process_noise
 from uwb_env.sensing.records import Detections
-from uwb_env.tracking import ambiguity, compiled
-from uwb_env.tracking.imm import imm_mix, restrict_transition, switch_model_sets
+from uwb_env.tracking import compiled
+from uwb_env.tracking.expectation import ReductionModel, filter_args, gaussian_expected_update
+from uwb_env.tracking.imm import imm_combine, restrict_transition, switch_model_sets, switch_probabilities
 from uwb_env.tracking.initiation import (
-    fuse_candidates,
     range_azimuth_candidates,
     range_only_candidates,
     ridge_range,
-    two_point_pairs,
 )
 from uwb_env.tracking.kernels import (
-    UnscentedWeights,
-    ekf_moments,
-    gaussian_log_likelihood,
-    joseph_update,
-    kf_predict,
-    linearised_h,
-    mixture_reduce,
-    ukf_moments,
+    symmetrise,
 )
-from uwb_env.tracking.lmipda import lmipda, predict_existence
-from uwb_env.tracking.measurement import angular_mask, wrap_residual
+from uwb_env.tracking.lmipda import predict_existence
+from uwb_env.tracking.trackset import FIELDS as _FIELDS
+from uwb_env.tracking.trackset import Prediction, TrackSet
 from uwb_env.typing import BoolArray, FloatArray, IntArray
 
 PdModel = Callable[[int, int, FloatArray], FloatArray]
-BACKENDS = ("compiled", "numpy")
-"""Kernel back ends: ``compiled`` (numba, fused per scan; the default) and ``numpy`` (the reference kernels)."""
 ZERO_ACCELERATION_STD = 0.01
 _PV = np.array([0, 2, 1, 3])  # state indices of (x, y, vx, vy)
 """Acceleration std [m/s^2] kept by models without acceleration (NCV, CT) so covariances stay positive definite."""
-
-
-@dataclass(slots=True)
-class TrackSet:
-    """The tracks (mutable per-episode state), arrays over N tracks and the r models of the tracker.
-
-    Attributes:
-        ids: ``(N,)`` stable ids; confirmed: ``(N,)``; age: ``(N,)`` scans since birth; born: ``(N,)`` scan index.
-        existence: ``(N,)`` probability of existence; mu: ``(N, r)`` model probabilities; active: ``(N, r)``.
-        x: ``(N, r, 6)`` and P: ``(N, r, 6, 6)`` model-conditioned estimates.
-    """
-
-    ids: IntArray
-    confirmed: BoolArray
-    age: IntArray
-    born: IntArray
-    existence: FloatArray
-    mu: FloatArray
-    active: BoolArray
-    x: FloatArray
-    P: FloatArray
-
-    @classmethod
-    def empty(cls, r: int) -> TrackSet:
-        """No tracks."""
-        return cls(
-            np.zeros(0, np.int64),
-            np.zeros(0, bool),
-            np.zeros(0, np.int64),
-            np.zeros(0, np.int64),
-            np.zeros(0),
-            np.zeros((0, r)),
-            np.zeros((0, r), bool),
-            np.zeros((0, r, 6)),
-            np.zeros((0, r, 6, 6)),
-        )
-
-    def __len__(self) -> int:
-        return int(self.ids.shape[0])
-
-    def select(self, keep: BoolArray) -> TrackSet:
-        """The tracks where ``keep`` (N,) is True (copies; ``take`` on the indices is the cheapest at these sizes)."""
-        index = np.flatnonzero(keep)
-        return TrackSet(*(getattr(self, f).take(index, axis=0) for f in _FIELDS))
-
-    def combined(self) -> tuple[FloatArray, FloatArray]:
-        """IMM output: combined means ``(N, 6)`` and covariances ``(N, 6, 6)`` (compiled imm_combine)."""
-        return compiled.combine(self.mu, self.x, self.P)
-
-
-_FIELDS = ("ids", "confirmed", "age", "born", "existence", "mu", "active", "x", "P")
 
 
 @dataclass(slots=True)
@@ -137,13 +77,18 @@ class _Candidates:
 class Tracker:
     """VS-IMM / LMIPDA multi-target tracker (component tier: configuration + kernels, state in ``tracks``).
 
+    ``TrackerConfig.kind = "imm-lmipda"``: a ``uwb_env.tracking.protocol.MultiTargetTracker``.
+
     Args:
         cfg: tracker configuration; tx_pos, rx_pos: ``(T, 2)``, ``(R, 2)`` node positions [m];
         area: surveillance area ``[x_min, x_max, y_min, y_max]`` [m] (candidates outside are dropped);
         pd_model: optional ``(tx, rx, positions (N, 2)) -> Pd (N,)``;
-        backend: ``"compiled"`` (numba kernels of ``uwb_env.tracking.compiled``, default) or ``"numpy"`` (the
-            reference kernels); both give the same tracks to rounding error (tested).
+
+    The kernels are compiled (``uwb_env.tracking.compiled``, fused per scan); ``uwb_env.tracking.reference`` holds
+    the numpy twin (``ReferenceTracker``) the tests compare them with (the same tracks to rounding error).
     """
+
+    kind = "imm-lmipda"
 
     def __init__(
         self,
@@ -152,11 +97,7 @@ class Tracker:
         rx_pos: FloatArray,
         area: FloatArray,
         pd_model: PdModel | None = None,
-        backend: str = "compiled",
     ) -> None:
-        if backend not in BACKENDS:
-            raise ValueError(f"backend={backend!r}: must be one of {BACKENDS}")
-        self.backend = backend
         self.cfg = cfg
         self.tx_pos, self.rx_pos = np.asarray(tx_pos, float), np.asarray(rx_pos, float)
         self.area = np.asarray(area, float)
@@ -164,9 +105,6 @@ class Tracker:
         self.model_names = tuple(m.name for m in cfg.models)
         self.r = len(cfg.models)
         self.transition = np.array(cfg.transition, dtype=float)
-        self.weights = UnscentedWeights(6)
-        self._wm, self._wc, self._sigma_scale = compiled.weights_arrays(self.weights)
-        self._kinds: dict[tuple[str, ...], np.ndarray] = {}
         self._masks: dict[tuple[str, ...], BoolArray] = {}
         self._indices: dict[bytes, IntArray] = {}
         self._restricted: dict[tuple[float, bytes], tuple[FloatArray, FloatArray, FloatArray]] = {}
@@ -181,9 +119,19 @@ class Tracker:
         )
         self.reset()
 
+    @classmethod
+    def from_layout(cls, cfg: TrackerConfig, layout: SceneLayout, pd_model: PdModel | None = None) -> Tracker:
+        """The registry's factory (``uwb_env.tracking.registry``): the tracker of the scene ``layout``."""
+        return cls(cfg, layout.tx_pos, layout.rx_pos, layout.area, pd_model)
+
+    @property
+    def filter(self) -> str:
+        """The filter's linearisation, ``"ukf"`` or ``"ekf"`` (``TrackerConfig.filter``)."""
+        return self.cfg.filter
+
     # ----------------------------------------------------------------------------------------------- state
-    def reset(self) -> None:
-        """Forget every track and candidate."""
+    def reset(self, rng: np.random.Generator | None = None) -> None:
+        """Forget every track and candidate (``rng`` is unused: this tracker draws nothing)."""
         self.tracks = TrackSet.empty(self.r)
         self._next_id = 0
         self._previous = _Candidates()
@@ -300,13 +248,14 @@ class Tracker:
         # re-initialised from the combined estimate by the switch rule if they come back).
         a = self._active_index(mask)
         Pi, F, Q = self._restricted_matrices(dt, mask)
-        if self.backend == "compiled":
-            compiled.predict_models(mu, Pi, x, P, F, Q, a)  # in place
-        else:
-            cbar, x0, P0 = imm_mix(mu[:, a], np.broadcast_to(Pi, (mu.shape[0], a.size, a.size)), x[:, a], P[:, a])
-            x[:, a], P[:, a] = kf_predict(x0, P0, F[None], Q[None])
-            mu[:, a] = cbar / cbar.sum(axis=-1, keepdims=True)
+        self._mix_predict(mu, Pi, x, P, F, Q, a)
         return mu, active, x, P
+
+    def _mix_predict(
+        self, mu: FloatArray, Pi: FloatArray, x: FloatArray, P: FloatArray, F: FloatArray, Q: FloatArray, a: IntArray
+    ) -> None:
+        """IMM mixing and Kalman prediction of the active models ``a``, in place (compiled)."""
+        compiled.predict_models(mu, Pi, x, P, F, Q, a)
 
     def predicted(self, time_s: float, scan_index: int) -> TrackSet:
         """The tracks predicted to ``time_s`` (IMM mixing and prediction, existence), without changing the tracker.
@@ -339,86 +288,65 @@ class Tracker:
         xc, Pc = compiled.combine(mu, x, P)
         return xc, Pc, mu, (active[0] if active.shape[0] else self._active_mask(scan_index))
 
-    def _update(self, det: Detections) -> BoolArray:
-        """LMIPDA + PDA update of every track with one pair's detections.
+    # ------------------------------------------------------------------------------- the lookahead's hooks
+    def scored_prediction(self, time_s: float, scan_index: int) -> Prediction | None:
+        """The tracks a lookahead scores, predicted to ``time_s`` (pure, ``predicted_estimates``).
 
-        Returns which measurements now belong to some track (kept from initiation). Only (track, model,
-        measurement) triples that pass the gate are evaluated in full: a cheap exact pre-gate first, since
-        nu^T S^-1 nu >= nu_k^2 / S_kk for every component k of a positive definite S.
+        The confirmed ones, or every (tentative) track when none is; ``None`` without any track.
         """
-        cfg, t = self.cfg, self.tracks
-        names = det.measurement_names
-        m = len(names)
-        # all tracks share the scan's model set (see _predict): work on the active models only
-        a = self._active_index(t.active[0])
-        tx, rx = self.tx_pos[det.tx], self.rx_pos[det.rx]
-        if self.backend == "compiled":
-            return self._update_compiled(det, a, tx, rx)
-        X, PP, MU = t.x[:, a], t.P[:, a], t.mu[:, a]
-        N, r = len(t), a.size
-        ang = angular_mask(names)
-        z_hat, S0, C = self.measurement_moments(names, X, PP, tx, rx)
-        g2 = self._gates[m]
-        nu = wrap_residual(det.z[None, None] - z_hat[:, :, None], ang)  # (N, r, M, m)
-        period = det.range_rate_period_mps
-        if math.isfinite(period) and "range_rate" in names:  # folded range-rate (tracking.ambiguity)
-            d = names.index("range_rate")
-            blind = ambiguity.unresolved(S0, d, period)
-            S0, C = ambiguity.marginalise(S0, C, d, period, blind)
-            nu = ambiguity.fold_innovations(nu, d, period, blind)
-        s_diag = np.diagonal(S0, axis1=-2, axis2=-1)[:, :, None] + np.diagonal(det.R, axis1=-2, axis2=-1)[None, None]
-        ti, ri, mi = np.nonzero(np.all(nu * nu <= g2 * s_diag, axis=-1))
-        S = S0[ti, ri] + det.R[mi]
-        loglik, d2 = gaussian_log_likelihood(nu[ti, ri, mi], S)
-        keep = d2 < g2
-        ti, ri, mi, loglik, S = ti[keep], ri[keep], mi[keep], loglik[keep], S[keep]
-        pd = self._pd(det, t)
-        if mi.size == 0:
-            empty = np.zeros((N, r, 0))
-            psi, mu, _ = lmipda(
-                empty, empty.astype(bool), MU, t.existence, pd, cfg.gate_probability, cfg.fixed_existence
-            )
-            t.existence = psi
-            t.mu[:, a] = mu
-            return np.zeros(len(det), bool)
-        cols, j = np.unique(mi, return_inverse=True)  # the measurements some track gates
-        J = cols.size
-        rho = np.maximum(det.clutter_intensity[cols], cfg.min_clutter_intensity)
-        log_ratio = np.zeros((N, r, J))
-        gated = np.zeros((N, r, J), bool)
-        log_ratio[ti, ri, j] = loglik - np.log(cfg.gate_probability) - np.log(rho[j])
-        gated[ti, ri, j] = True
-        psi, mu, beta = lmipda(log_ratio, gated, MU, t.existence, pd, cfg.gate_probability, cfg.fixed_existence)
-        H = linearised_h(PP, C)  # (N, r, m, 6), once per track and model
-        xu, Pu = joseph_update(X[ti, ri], PP[ti, ri], C[ti, ri], S0[ti, ri], det.R[mi], nu[ti, ri, mi], H[ti, ri])
-        xs = np.broadcast_to(X[:, :, None], (N, r, J + 1, 6)).copy()
-        Ps = np.broadcast_to(PP[:, :, None], (N, r, J + 1, 6, 6)).copy()
-        xs[ti, ri, j + 1] = xu
-        Ps[ti, ri, j + 1] = Pu
-        t.x[:, a], t.P[:, a] = mixture_reduce(beta, xs, Ps)
-        t.existence = psi
-        t.mu[:, a] = mu
-        # A measurement is taken (kept from initiation) when it belongs to some track with probability > 1/2:
-        # P(track t exists and measurement i is its) = psi_t+ sum_r mu_r+ beta_i^{t,r}.
-        owned = np.einsum("n,nr,nrj->j", psi, mu, beta[:, :, 1:])
-        taken = np.zeros(len(det), bool)
-        taken[cols] = owned > 0.5
-        return taken
+        confirmed = self.tracks.confirmed  # prediction does not change the status
+        if not confirmed.size:
+            return None
+        return Prediction(*self.predicted_estimates(time_s, scan_index, confirmed if confirmed.any() else ~confirmed))
 
-    def measurement_moments(
-        self, names: tuple[str, ...], x: FloatArray, P: FloatArray, tx: FloatArray, rx: FloatArray
-    ) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """``(z_hat, S0, C)`` of the named measurement by the tracker's filter (UKF or EKF), numpy kernels."""
-        if self.cfg.filter == "ukf":
-            return ukf_moments(names, x, P, tx, rx, self.weights, angular_mask(names))
-        return ekf_moments(names, x, P, tx, rx)
+    def predict_gaussians(self, pred: Prediction, dt: float, scan_index: int) -> Prediction:
+        """Moment-matched IMM prediction of combined estimates to ``scan_index``, ``dt`` later (pure).
+
+        Every active model j from the combined (x, P): x_j = F_j x, P_j = F_j P F_j^T + Q_j, mixed with the
+        predicted model probabilities mu^- = Pi^T mu and the spread of the x_j; the VS-IMM set of that scan with the
+        switch rule for mu (``uwb_env.tracking.imm``).
+        """
+        x, P, mu, active = pred.x, pred.P, pred.mu, pred.active
+        mask, Pi, F, Q = self.prediction_models(dt, scan_index)
+        if (mask != active).any():
+            mu = switch_probabilities(np.broadcast_to(active, mu.shape), np.broadcast_to(mask, mu.shape), mu)
+        a = np.flatnonzero(mask)
+        mu_pred = np.zeros_like(mu)
+        mu_pred[:, a] = mu[:, a] @ Pi  # (N, a): mu^-_j = sum_i Pi_ij mu_i
+        xj = np.einsum("jkl,nl->njk", F, x)  # (N, a, 6)
+        Pj = F[None] @ P[:, None] @ np.swapaxes(F, -1, -2)[None] + Q[None]
+        xp, Pp = imm_combine(mu_pred[:, a], xj, Pj)
+        return Prediction(xp, symmetrise(Pp), mu_pred, mask)
+
+    def expected_update(
+        self,
+        Pa: FloatArray,
+        x: FloatArray,
+        P: FloatArray,
+        names: tuple[str, ...],
+        tx_pos: FloatArray,
+        rx_pos: FloatArray,
+        R: FloatArray,
+        pd: FloatArray,
+        reduction: ReductionModel,
+        rho: FloatArray,
+        period: FloatArray,
+    ) -> FloatArray:
+        """One pair's expected update of ``Pa (A, N, 6, 6)`` with this tracker's filter (``tracking.expectation``)."""
+        return gaussian_expected_update(self.cfg.filter, Pa, x, P, names, tx_pos, rx_pos, R, pd, reduction, rho, period)
+
+    def _update(self, det: Detections) -> BoolArray:
+        """LMIPDA + PDA update of every track with one pair's detections (``compiled.receiver_update``).
+
+        Returns which measurements now belong to some track (kept from initiation).
+        """
+        # all tracks share the scan's model set (see _predict): work on the active models only
+        a = self._active_index(self.tracks.active[0])
+        return self._update_compiled(det, a, self.tx_pos[det.tx], self.rx_pos[det.rx])
 
     def compiled_filter_args(self, names: tuple[str, ...]) -> tuple[np.ndarray, FloatArray, FloatArray, float, bool]:
         """``(kinds, wm, wc, sigma_scale, use_ukf)``: the measurement and filter arguments of the compiled kernels."""
-        kinds = self._kinds.get(names)
-        if kinds is None:
-            kinds = self._kinds[names] = compiled.kind_codes(names)
-        return kinds, self._wm, self._wc, self._sigma_scale, self.cfg.filter == "ukf"
+        return filter_args(self.cfg.filter, names)
 
     def _update_compiled(self, det: Detections, a: IntArray, tx: FloatArray, rx: FloatArray) -> BoolArray:
         """``_update`` with the fused compiled kernel (``compiled.receiver_update``)."""
@@ -470,7 +398,6 @@ class Tracker:
     def _initiate(self, unused: list[tuple[Detections, BoolArray]], time_s: float, scan_index: int) -> None:
         cfg = self.cfg
         ps, covs, range_groups = [], [], []
-        fast = self.backend == "compiled"
         for det, free in unused:  # per pair: a small fixed set
             if not free.any():
                 continue
@@ -480,21 +407,9 @@ class Tracker:
                 covs.append(det.R[free])
                 continue
             tx, rx = self.tx_pos[det.tx], self.rx_pos[det.rx]
-            if fast and "azimuth" in names:
-                p, cov = compiled.azimuth_candidates(
-                    np.ascontiguousarray(det.z, dtype=float),
-                    np.ascontiguousarray(det.R, dtype=float),
-                    np.ascontiguousarray(det.snr, dtype=float),
-                    free,
-                    names.index("azimuth"),
-                    names.index("range_rate") if "range_rate" in names else -1,
-                    tx,
-                    rx,
-                    2.0 * cfg.max_speed_mps,
-                    cfg.init_max_candidates,
-                )
-                ps.append(p)
-                covs.append(cov)
+            if "azimuth" in names and (found := self._azimuth_candidates(det, free, tx, rx)) is not None:
+                ps.append(found[0])
+                covs.append(found[1])
                 continue
             # strongest first, so that any cap below keeps the strongest detections (dense clutter)
             order = np.argsort(-det.snr[free], kind="stable")[: cfg.init_max_candidates]
@@ -518,83 +433,51 @@ class Tracker:
             p, cov = np.zeros((0, 2)), np.zeros((0, 2, 2))
         else:
             p, cov = (np.concatenate(ps), np.concatenate(covs)) if len(ps) > 1 else (ps[0], covs[0])
-        max_spread = 2.0 * cfg.init_max_position_std_m**2
-        prev = self._previous
-        dt = time_s - prev.time_s
-        if fast:  # select, fuse, two-point pairing and the new states in one compiled call
-            x, P, rest_p, rest_cov = compiled.initiate(
-                p,
-                cov,
-                prev.p,
-                prev.cov,
-                dt,
-                self.area,
-                max_spread,
-                cfg.init_max_candidates,
-                self._gates[2],
-                cfg.max_speed_mps,
-                cfg.initial_accel_std_mps2,
-            )
-            if x.shape[0]:
-                self._append_tracks(x, P, scan_index)
-            self._previous = _Candidates(rest_p, rest_cov, time_s)
-            return
-        inside = (
-            (p[:, 0] >= self.area[0])
-            & (p[:, 0] <= self.area[1])
-            & (p[:, 1] >= self.area[2])
-            & (p[:, 1] <= self.area[3])
+        self._form_tracks(p, cov, time_s, scan_index)
+
+    def _azimuth_candidates(
+        self, det: Detections, free: BoolArray, tx: FloatArray, rx: FloatArray
+    ) -> tuple[FloatArray, FloatArray] | None:
+        """Position candidates ``(p (n, 2), cov (n, 2, 2))`` of one array receiver's free detections (compiled)."""
+        names, cfg = det.measurement_names, self.cfg
+        return compiled.azimuth_candidates(
+            np.ascontiguousarray(det.z, dtype=float),
+            np.ascontiguousarray(det.R, dtype=float),
+            np.ascontiguousarray(det.snr, dtype=float),
+            free,
+            names.index("azimuth"),
+            names.index("range_rate") if "range_rate" in names else -1,
+            tx,
+            rx,
+            2.0 * cfg.max_speed_mps,
+            cfg.init_max_candidates,
         )
-        spread = np.trace(cov, axis1=1, axis2=2)
-        inside &= spread <= max_spread
-        p, cov, spread = p[inside], cov[inside], spread[inside]
-        if p.shape[0] > cfg.init_max_candidates:  # keep the most precise
-            best = np.argsort(spread, kind="stable")[: cfg.init_max_candidates]
-            p, cov = p[best], cov[best]
-        p, cov = fuse_candidates(p, cov, self._gates[2])
-        i, j = (
-            two_point_pairs(p, cov, prev.p, prev.cov, dt, cfg.max_speed_mps)
-            if np.isfinite(dt)
-            else (np.zeros(0, np.int64), np.zeros(0, np.int64))
-        )
-        if i.size:
-            self._append_tracks(*self._new_track_states(p[i], cov[i], prev.p[j], prev.cov[j], dt), scan_index)
-        rest = np.ones(p.shape[0], bool)
-        rest[i] = False
-        self._previous = _Candidates(p[rest], cov[rest], time_s)
 
-    def _new_track_states(
-        self, p: FloatArray, cov: FloatArray, p0: FloatArray, cov0: FloatArray, dt: float
-    ) -> tuple[FloatArray, FloatArray]:
-        """States ``(x (n, 6), P (n, 6, 6))`` of tentative tracks from two-point differencing.
+    def _form_tracks(self, p: FloatArray, cov: FloatArray, time_s: float, scan_index: int) -> None:
+        """Select, fuse and pair this scan's candidates with the previous scan's; new tentative tracks (compiled).
 
-        The numpy reference of ``compiled.new_track_states``.
-
-        Position now, velocity from the difference.
-
-        The differenced velocity v_hat = (p - p0) / T, covariance Sigma = (cov + cov0) / T^2, is fused with the
-        prior N(0, (v_max / 2)^2 I): v = K v_hat, Cov(v) = (Sigma^-1 + prior^-1)^-1, K = Cov(v) Sigma^-1, and
-        Cov(p, v) = cov K^T / T (a valid joint covariance since Cov(v) <= Sigma).
+        Candidates outside the area or with position spread above 2 ``init_max_position_std_m``^2 are dropped, at
+        most ``init_max_candidates`` (the most precise) kept, those within the gate of each other fused, and pairs
+        within the velocity gate form tracks (two-point differencing, ``compiled.new_track_states``); the rest wait
+        a scan.
         """
-        n, cfg = p.shape[0], self.cfg
-        v_hat = (p - p0) / dt
-        sigma = (cov + cov0) / dt**2
-        sigma_inv = np.linalg.inv(sigma)
-        cov_v = np.linalg.inv(sigma_inv + np.eye(2) / (0.5 * cfg.max_speed_mps) ** 2)
-        K = cov_v @ sigma_inv
-        x = np.zeros((n, 6))
-        x[:, 0], x[:, 2] = p[:, 0], p[:, 1]
-        v = np.einsum("nij,nj->ni", K, v_hat)
-        x[:, 1], x[:, 3] = v[:, 0], v[:, 1]
-        cross = cov @ np.swapaxes(K, -1, -2) / dt
-        block = np.concatenate(  # (n, 4, 4) in the order (x, y, vx, vy), scattered once into the state order
-            [np.concatenate([cov, cross], axis=2), np.concatenate([np.swapaxes(cross, -1, -2), cov_v], axis=2)],
-            axis=1,
+        cfg, prev = self.cfg, self._previous
+        x, P, rest_p, rest_cov = compiled.initiate(
+            p,
+            cov,
+            prev.p,
+            prev.cov,
+            time_s - prev.time_s,
+            self.area,
+            2.0 * cfg.init_max_position_std_m**2,
+            cfg.init_max_candidates,
+            self._gates[2],
+            cfg.max_speed_mps,
+            cfg.initial_accel_std_mps2,
         )
-        P = np.zeros((n, 6, 6))
-        P[:, _PV[:, None], _PV[None, :]] = block
-        P[:, 4, 4] = P[:, 5, 5] = cfg.initial_accel_std_mps2**2
-        return x, P
+        if x.shape[0]:
+            self._append_tracks(x, P, scan_index)
+        self._previous = _Candidates(rest_p, rest_cov, time_s)
 
     def _append_tracks(self, x: FloatArray, P: FloatArray, scan_index: int) -> None:
         """Append new tentative tracks with states ``x (n, 6)``, ``P (n, 6, 6)`` in every model, fresh ids.
