@@ -251,3 +251,43 @@ class TrackAccounting:
         e = np.concatenate(self.errors) if self.errors else np.zeros(0)
         e = e[np.isfinite(e)]
         return float(np.sqrt(np.mean(e**2))) if e.size else float("nan")
+
+
+def _navigation_errors(errors: FloatArray) -> FloatArray:
+    """The finite, flattened navigation errors [m]; ValueError when none is left or one is negative."""
+    e = np.asarray(errors, dtype=float).reshape(-1)
+    e = e[np.isfinite(e)]
+    if e.size == 0:
+        raise ValueError("navigation errors: need at least one finite error")
+    if (e < 0).any():
+        raise ValueError(f"navigation errors: must be >= 0 (got {float(e.min())})")
+    return e
+
+
+def navigation_error_outage(errors: FloatArray, thresholds: FloatArray) -> FloatArray:
+    """Seed 002's navigation error outage (eq. 21): P{e > e_th} for each threshold, the NEO curve.
+
+    Args:
+        errors: navigation errors e = |p^ - p| [m] over time indices (and runs), any shape; non-finite entries (no
+            estimate at that time) are left out.
+        thresholds: the target values e_th [m], any shape.
+
+    Returns:
+        The fraction of the errors strictly above each threshold, shaped like ``thresholds``.
+    """
+    e = np.sort(_navigation_errors(errors))
+    th = np.asarray(thresholds, dtype=float)
+    return (e.size - np.searchsorted(e, th, side="right")) / e.size
+
+
+def error_at_outage(errors: FloatArray, level: float = 0.2) -> float:
+    """The smallest error e_th [m] with NEO(e_th) <= ``level``: the seed's "in 80 % of the cases the error is below".
+
+    With the n finite errors sorted, e_(1) <= ... <= e_(n), it is e_(k), k = ceil(n (1 - level)) (an empirical
+    quantile with no interpolation): at most ``level`` n errors exceed it. ``level`` in (0, 1).
+    """
+    if not 0.0 < level < 1.0:
+        raise ValueError(f"level = {level!r}: must be in (0, 1)")
+    e = np.sort(_navigation_errors(errors))
+    k = max(math.ceil(e.size * (1.0 - level) - 1e-9), 1)
+    return float(e[k - 1])

@@ -79,7 +79,7 @@ from uwb_env.constants import SPEED_OF_LIGHT_MPS
 from uwb_env.scene.geometry import segments_cross
 from uwb_env.scene.layout import SceneLayout
 from uwb_env.sensing.records import Detections
-from uwb_env.tracking.expectation import gaussian_expected_update
+from uwb_env.tracking.expectation import ReductionModel, gaussian_expected_update
 
 try:  # the tracker seam's records (moved to trackset by the seam's second part)
     from uwb_env.tracking.trackset import Prediction, TrackSet
@@ -117,8 +117,10 @@ def sdl_displacements(n: int, velocity: FloatArray, dt: float, sigma_m: float, r
 
 
 def sdl_velocity(estimates: FloatArray, window: int, dt: float) -> FloatArray | None:
-    """v_el (eq. 17 as read, module docstring): ``(2,)`` mean velocity of the last ``window`` steps of the estimates
-    ``(K, 2)`` (oldest first); None with fewer than ``window + 1`` estimates."""
+    """v_el (eq. 17 as read, module docstring): ``(2,)`` mean velocity over the last ``window`` steps.
+
+    ``estimates``: ``(K, 2)`` past position estimates, oldest first; None with fewer than ``window + 1``.
+    """
     if estimates.shape[0] < window + 1:
         return None
     return (estimates[-1] - estimates[-1 - window]) / (window * dt)
@@ -276,8 +278,10 @@ class ParticleFilterTracker:
         self._span = {
             (t, r): max(
                 float(
-                    (np.linalg.norm(corners - self.tx_pos[t], axis=1) + np.linalg.norm(corners - self.rx_pos[r], axis=1))
-                    .max()
+                    (
+                        np.linalg.norm(corners - self.tx_pos[t], axis=1)
+                        + np.linalg.norm(corners - self.rx_pos[r], axis=1)
+                    ).max()
                 ),
                 1.0,
             )
@@ -287,7 +291,7 @@ class ParticleFilterTracker:
         self.reset()
 
     @classmethod
-    def from_layout(cls, cfg: TrackerConfig, layout: SceneLayout, pd_model: PdModel | None = None):  # noqa: ANN206
+    def from_layout(cls, cfg: TrackerConfig, layout: SceneLayout, pd_model: PdModel | None = None):
         """The registry's factory (``uwb_env.tracking.registry``)."""
         return cls(cfg, layout, pd_model)
 
@@ -342,9 +346,8 @@ class ParticleFilterTracker:
         """``(N,)`` log p(scan | particle) of particles ``pos (N, 2)`` (module docstring), summed over the pairs."""
         pf, cfg = self.pf, self.cfg
         total = np.zeros(pos.shape[0])
-        bias = (self._wall_a, self._wall_b, self._wall_delay) if pf.wall_bias else (np.zeros((0, 2)),) * 2 + (
-            np.zeros(0),
-        )
+        no_walls = (np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0))
+        bias = (self._wall_a, self._wall_b, self._wall_delay) if pf.wall_bias else no_walls
         for det in detections:  # the pairs of a scan: a handful (vectorised over particles and detections)
             tx, rx = int(det.tx), int(det.rx)
             if self.pd_model is not None:
@@ -398,7 +401,8 @@ class ParticleFilterTracker:
             self._born = scan_index
             self._age = 0
         else:
-            assert self._vel is not None and self._w is not None
+            assert self._vel is not None
+            assert self._w is not None
             dt = time_s - (self._time if self._time is not None else time_s)
             if dt > 0.0:
                 wall_a, wall_b = self._walls()
@@ -406,7 +410,9 @@ class ParticleFilterTracker:
                 self._vel = d / dt
             self._age += 1
         self._time = time_s
-        assert self._pos is not None and self._vel is not None and self._w is not None
+        assert self._pos is not None
+        assert self._vel is not None
+        assert self._w is not None
         logw = np.log(np.maximum(self._w, 1e-300)) + self.log_likelihood(self._pos, detections)
         logw -= logw.max()
         w = np.exp(logw)
@@ -478,7 +484,5 @@ class ParticleFilterTracker:
         period: FloatArray,
     ) -> FloatArray:
         """One pair's expected update of the moment-matched Gaussians (``expectation.gaussian_expected_update``)."""
-        return gaussian_expected_update(
-            "ukf", Pa, x, P, names, tx_pos, rx_pos, R, pd, reduction, rho, period  # type: ignore[arg-type]
-        )
-
+        model: ReductionModel = reduction  # type: ignore[assignment]
+        return gaussian_expected_update("ukf", Pa, x, P, names, tx_pos, rx_pos, R, pd, model, rho, period)
