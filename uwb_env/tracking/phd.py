@@ -8,7 +8,8 @@ One scan (``PhdTracker.step``), in the order data flows:
    network chain (``uwb_env.localization.locate``: nu-tuple ellipse intersection, residual filter, 2-D clustering,
    geometry covariance) exactly as seed 000 feeds its PHD filter; their clutter intensity is
    ``PhdConfig.false_position_density_per_m2``. The ranges carry no seed weight omega, so every tuple has weight 1
-   and the weight threshold is off (the residual threshold does the filtering).
+   and the weight threshold is off (the residual threshold does the filtering); other columns (range-rate,
+   azimuth) are not used.
 2. Prediction (seed eq. 32): each particle ``[x, vx, y, vy]`` moves by the NCV model with white acceleration noise
    (``accel_noise_std_mps2``, drawn through the model's gain G), its weight times the survival probability p_S
    (``survival_probability``; 0 beyond ``area_margin_m`` outside the surveillance area). No spawning (seed 000's
@@ -154,8 +155,8 @@ def em_mixture(
             rw, mass = rw[:, keep], mass[keep]
         means = (rw.T @ X) / mass[:, None]
         D = X[None] - means[:, None]  # (K, N, d)
-        covs = np.einsum("nk,kni,knj->kij", rw, D, D) / mass[:, None, None] + eye
-        if it == iterations:
+        covs = (np.swapaxes(D * rw.T[:, :, None], 1, 2) @ D) / mass[:, None, None] + eye
+        if it == iterations or mass.shape[0] == 1:  # one component: the weighted moments are the fixed point
             break
         # E-step
         Lc = np.linalg.cholesky(covs)
@@ -173,7 +174,7 @@ def em_mixture(
             rw, mass = rw[:, keep], mass[keep]
             means = (rw.T @ X) / mass[:, None]
             D = X[None] - means[:, None]
-            covs = np.einsum("nk,kni,knj->kij", rw, D, D) / mass[:, None, None] + eye
+            covs = (np.swapaxes(D * rw.T[:, :, None], 1, 2) @ D) / mass[:, None, None] + eye
             break
         ll_old = ll
     return mass, means, covs
@@ -379,10 +380,13 @@ class PhdTracker:
         self.weights = np.full(n, mass / n)
 
     def _extract(self, z: FloatArray, z_mass: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """EM peak extraction (module docstring, step 5): masses ``(K,)``, states ``(K, 6)``, covariances ``(K, 6, 6)``."""
+        """EM peak extraction (module docstring, step 5).
+
+        Returns masses ``(K,)``, states ``(K, 6)`` and covariances ``(K, 6, 6)`` of the K = round(mass) peaks.
+        """
         phd = self.phd
         X, w = self.particles, self.weights
-        m_hat = int(round(float(w.sum())))
+        m_hat = round(float(w.sum()))
         if m_hat == 0 or X.shape[0] == 0:
             return np.zeros(0), np.zeros((0, 6)), np.zeros((0, 6, 6))
         order = np.argsort(-z_mass, kind="stable")
