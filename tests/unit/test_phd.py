@@ -355,3 +355,47 @@ def test_tracks_the_person_on_indoor_rsn() -> None:
         assert len(errors) >= 50  # confirmed within the first 11 scans
         assert np.median(errors) < 0.6, (seed, np.median(errors))
         assert np.mean(np.array(errors) < 0.6) > 0.8
+
+
+def test_silent_tracks_are_predicted_with_the_ncv_model() -> None:
+    """A confirmed track without detections turns silent and its head moves on by F (the NCV model)."""
+    trk = tracker(PhdConfig(confirm_updates=3, silent_max_scans=5), pd=0.95)
+    trk.reset(np.random.default_rng(2))
+    R = np.diag([0.01, 0.01])[None]
+    for k in range(10):
+        trk.step([positions(np.array([[20.0 + 0.15 * k, 30.0]]), R, 1e-3)], 0.1 * k, k)
+    assert trk.status.tolist() == [CONFIRMED]
+    x0, P0 = trk.tracks.x[0, 0].copy(), trk.tracks.P[0, 0].copy()
+    assert x0[1] == pytest.approx(1.5, abs=0.1)  # the velocity is estimated
+    F, _ = model_transition("ncv", 0.1)
+    for k in (10, 11):
+        trk.step([positions(np.zeros((0, 2)), np.zeros((0, 2, 2)), 1e-3)], 0.1 * k, k)
+        x0, P0 = F @ x0, F @ P0 @ F.T
+        assert trk.status.tolist() == [SILENT] and trk.tracks.confirmed.tolist() == [True]
+        np.testing.assert_allclose(trk.tracks.x[0, 0], x0, atol=1e-12)
+        assert np.all(np.diagonal(trk.tracks.P[0, 0]) >= np.diagonal(P0) - 1e-12)  # F P F^T + Q
+    assert trk.tracks.existence[0] < 1.0
+
+
+def test_pd_model_is_the_fused_measurement_pd_on_a_grid() -> None:
+    """P_D is asked of ``pd_model(0, -1, cells)`` once per occupied grid cell and matches it to the grid's
+    resolution (a plane of slopes 0.01 and 0.005 per metre: error <= (0.01 + 0.005) x half a cell)."""
+    calls = []
+
+    def f(pos: np.ndarray) -> np.ndarray:
+        return 0.9 - 0.01 * pos[:, 0] + 0.005 * pos[:, 1]
+
+    def pd_model(tx: int, rx: int, pos: np.ndarray) -> np.ndarray:
+        calls.append((tx, rx, pos.shape[0]))
+        return f(pos)
+
+    cfg = TrackerConfig(kind="phd", phd=PhdConfig(pd_grid_m=0.25))
+    trk = PhdTracker(cfg, np.zeros((1, 2)), np.zeros((1, 2)), AREA, pd_model)
+    pos = np.random.default_rng(4).normal([20.0, 30.0], 0.5, (3000, 2))
+    pd = trk._pd(pos)
+    assert len(calls) == 1 and calls[0][:2] == (0, -1) and calls[0][2] < 200
+    np.testing.assert_allclose(pd, f(pos), atol=(0.01 + 0.005) * 0.125 + 1e-12)
+    exact = PhdTracker(
+        TrackerConfig(kind="phd", phd=PhdConfig(pd_grid_m=0.0)), np.zeros((1, 2)), np.zeros((1, 2)), AREA, pd_model
+    )
+    np.testing.assert_allclose(exact._pd(pos), f(pos), rtol=1e-15)
