@@ -17,6 +17,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from uwb_env import scenarios
+from uwb_env.channel.walls import leg_crossings
 from uwb_env.config import MaterialConfig, PfConfig, TrackerConfig
 from uwb_env.constants import SPEED_OF_LIGHT_MPS
 from uwb_env.metrics import error_at_outage, navigation_error_outage
@@ -30,6 +31,8 @@ from uwb_env.tracking.expectation import reduction_model
 from uwb_env.tracking.pf import (
     ParticleFilterTracker,
     Prediction,
+    blocked_moves,
+    leg_delays,
     mobility_std,
     move_particles,
     pair_log_likelihood,
@@ -160,6 +163,21 @@ def test_moves_never_cross_a_wall(walls, seed, redraws, step_m):
     np.testing.assert_allclose(new, pos + d)
     moved = np.any(d != 0.0, axis=1)
     assert not segments_cross(pos[moved], new[moved], a, b).any()
+
+
+@settings(max_examples=40, deadline=None)
+@given(walls=st.lists(st.tuples(point, point), min_size=1, max_size=6), seed=st.integers(0, 2**31 - 1))
+def test_compiled_wall_kernels_equal_the_geometry_module(walls, seed):
+    """``blocked_moves`` is ``segments_cross`` exactly; ``leg_delays`` is ``leg_crossings @ delay`` to rounding."""
+    rng = np.random.default_rng(seed)
+    a = np.array([w[0] for w in walls], float)
+    b = np.array([w[1] for w in walls], float)
+    p0, p1 = rng.uniform(-6.0, 6.0, (40, 2)), rng.uniform(-6.0, 6.0, (40, 2))
+    np.testing.assert_array_equal(blocked_moves(p0, p1, a, b), segments_cross(p0, p1, a, b).any(axis=1))
+    delay = rng.uniform(0.0, 2e-9, len(walls))
+    node = rng.uniform(-6.0, 6.0, 2)
+    expected = leg_crossings(node[None], p1, a, b)[0] @ delay  # the same walls; the sums' order may differ
+    np.testing.assert_allclose(leg_delays(node, p1, a, b, delay), expected, rtol=1e-12, atol=0.0)
 
 
 def test_sdl_particles_stay_in_a_closed_room():

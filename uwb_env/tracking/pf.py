@@ -19,7 +19,8 @@ Mobility (eq. 15: p_k ~ N(mu_m, sigma_m^2 I), per particle):
   rule; we read the rule). ``PfConfig.mobility_std_m > 0`` fixes it instead.
 - Walls (``PfConfig.respect_walls``; the seed is silent, our choice): a move whose segment crosses a wall is redrawn
   up to ``wall_redraws`` times, then the particle stays where it was; vectorised segment intersection over
-  particles x walls (``uwb_env.scene.geometry.segments_cross``). No particle ever crosses a wall.
+  particles x walls (``blocked_moves``: the compiled twin of ``uwb_env.scene.geometry.segments_cross``). No particle
+  ever crosses a wall.
 
 Every particle carries a velocity, its last displacement over the scan interval (d / T): the 6-D state the other
 trackers report ``[x, vx, y, vy, ax, ay]``, with zero acceleration.
@@ -71,21 +72,15 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 
+import numba as nb
 import numpy as np
 
-from uwb_env.channel.walls import leg_crossings
 from uwb_env.config import PfConfig, TrackerConfig
 from uwb_env.constants import SPEED_OF_LIGHT_MPS
-from uwb_env.scene.geometry import segments_cross
 from uwb_env.scene.layout import SceneLayout
 from uwb_env.sensing.records import Detections
 from uwb_env.tracking.expectation import ReductionModel, gaussian_expected_update
-
-try:  # the tracker seam's records (moved to trackset by the seam's second part)
-    from uwb_env.tracking.trackset import Prediction, TrackSet
-except ImportError:  # pragma: no cover - before the move
-    from uwb_env.tracking.protocol import Prediction  # type: ignore[attr-defined,no-redef]
-    from uwb_env.tracking.tracker import TrackSet  # type: ignore[no-redef]
+from uwb_env.tracking.trackset import Prediction, TrackSet
 from uwb_env.typing import FloatArray
 
 PdModel = Callable[[int, int, FloatArray], FloatArray]
@@ -94,6 +89,52 @@ ACCELERATION_STD = 0.01
 DEFAULT_SEED = 0
 """Seed of the generator ``reset(None)`` uses (deterministic default)."""
 _LOG_2PI = math.log(2.0 * math.pi)
+_jit = nb.njit(cache=True, fastmath=False, nogil=True)
+
+
+# --------------------------------------------------------------------------- compiled wall tests (particles x walls)
+@_jit
+def _crosses(p0x, p0y, p1x, p1y, ax, ay, bx, by):  # pragma: no cover - compiled
+    """Whether segment p0 -> p1 crosses segment a -> b: ``uwb_env.scene.geometry.segments_cross``'s arithmetic."""
+    dx, dy = p1x - p0x, p1y - p0y
+    ex, ey = bx - ax, by - ay
+    wx, wy = ax - p0x, ay - p0y
+    denom = dx * ey - dy * ex
+    if abs(denom) < 1e-12:
+        return False
+    t = (wx * ey - wy * ex) / denom
+    u = (wx * dy - wy * dx) / denom
+    return t >= 0.0 and t <= 1.0 and u >= 0.0 and u <= 1.0
+
+
+@_jit
+def blocked_moves(p0, p1, wall_a, wall_b):  # pragma: no cover - compiled
+    """``(N,)`` whether each move ``p0[i] -> p1[i]`` (N, 2) crosses any wall ``wall_a[w] -> wall_b[w]`` (W, 2)."""
+    n, w = p0.shape[0], wall_a.shape[0]
+    out = np.zeros(n, np.bool_)
+    for i in range(n):
+        for j in range(w):
+            if _crosses(p0[i, 0], p0[i, 1], p1[i, 0], p1[i, 1], wall_a[j, 0], wall_a[j, 1], wall_b[j, 0], wall_b[j, 1]):
+                out[i] = True
+                break
+    return out
+
+
+@_jit
+def leg_delays(node, pos, wall_a, wall_b, delay_s):  # pragma: no cover - compiled
+    """``(N,)`` summed excess delay [s] of the walls crossed by each leg ``node (2,) -> pos[i]`` (N, 2).
+
+    The compiled twin of ``uwb_env.channel.walls.leg_crossings`` followed by ``@ delay_s`` (tested equal).
+    """
+    n, w = pos.shape[0], wall_a.shape[0]
+    out = np.zeros(n)
+    for i in range(n):
+        acc = 0.0
+        for j in range(w):
+            if _crosses(node[0], node[1], pos[i, 0], pos[i, 1], wall_a[j, 0], wall_a[j, 1], wall_b[j, 0], wall_b[j, 1]):
+                acc += delay_s[j]
+        out[i] = acc
+    return out
 
 
 # --------------------------------------------------------------------------------------- mobility models (eqs. 15-18)
@@ -153,12 +194,12 @@ def move_particles(
     d = draw(pos.shape[0])
     if wall_a.shape[0] == 0:
         return pos + d, d
-    blocked = np.flatnonzero(segments_cross(pos, pos + d, wall_a, wall_b).any(axis=1))
+    blocked = np.flatnonzero(blocked_moves(pos, pos + d, wall_a, wall_b))
     for _ in range(redraws):
         if blocked.size == 0:
             break
         d[blocked] = draw(blocked.size)
-        still = segments_cross(pos[blocked], pos[blocked] + d[blocked], wall_a, wall_b).any(axis=1)
+        still = blocked_moves(pos[blocked], pos[blocked] + d[blocked], wall_a, wall_b)
         blocked = blocked[still]
     d[blocked] = 0.0
     return pos + d, d
@@ -176,9 +217,9 @@ def predicted_ranges(
     h = np.linalg.norm(pos - tx, axis=1) + np.linalg.norm(pos - rx, axis=1)
     if wall_a.shape[0] == 0 or not np.any(wall_delay_s):
         return h
-    legs = np.stack((tx, rx)) if np.any(tx != rx) else tx[None]
-    delay = leg_crossings(legs, pos, wall_a, wall_b).astype(float) @ wall_delay_s  # (legs, N)
-    delay = delay.sum(axis=0) if legs.shape[0] == 2 else 2.0 * delay[0]
+    pos = np.ascontiguousarray(pos, dtype=float)
+    delay = leg_delays(tx, pos, wall_a, wall_b, wall_delay_s)
+    delay = delay + (leg_delays(rx, pos, wall_a, wall_b, wall_delay_s) if np.any(tx != rx) else delay)
     return h + SPEED_OF_LIGHT_MPS * delay
 
 
