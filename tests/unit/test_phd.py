@@ -399,3 +399,19 @@ def test_pd_model_is_the_fused_measurement_pd_on_a_grid() -> None:
         TrackerConfig(kind="phd", phd=PhdConfig(pd_grid_m=0.0)), np.zeros((1, 2)), np.zeros((1, 2)), AREA, pd_model
     )
     np.testing.assert_allclose(exact._pd(pos), f(pos), rtol=1e-15)
+
+
+def test_simulator_and_lookahead_run_the_phd_through_the_registry() -> None:
+    """``TrackerConfig.kind = "phd"``: the simulator builds the PHD (registry), the person is held from scan 5 on,
+    and the lookahead scores plans with its Gaussians (fewer listening receivers: a larger expected trace)."""
+    from uwb_env.lookahead import lookahead_costs
+    from uwb_env.sim import Simulator, round_robin, run_episode
+
+    sim = Simulator(scenarios.get("indoor-rsn", **{"tracker.kind": "phd"}))
+    assert isinstance(sim.tracker, PhdTracker)
+    acc = run_episode(sim, 3, round_robin(sim.sensor))
+    errors = np.concatenate(acc.errors[4:])
+    assert np.all(np.isfinite(errors)) and np.median(errors) < 0.1
+    plans = [ScanPlan.all_listening(0, 1, 6), ScanPlan(np.zeros(1, np.int64), np.array([1, 0, 1, 0, 1, 0], bool))]
+    costs = lookahead_costs(sim.sensor, sim.tracker, plans, sim.k * 0.1 + 0.1, sim.k + 1)
+    assert np.all(costs > 0) and costs[1] > costs[0]
