@@ -32,6 +32,7 @@ from uwb_env.tracking.pf import (
     ParticleFilterTracker,
     Prediction,
     blocked_moves,
+    ellipse_samples,
     leg_delays,
     mobility_std,
     move_particles,
@@ -236,6 +237,21 @@ def test_seed_perception_model_uses_sigma_p_on_the_one_way_distance():
         assert got[0] == pytest.approx(pair_log_likelihood(h, z, np.array([var]), np.array([pd]), np.ones(1))[0])
         assert got[0] == pytest.approx(math.log(1 - pd + pd * math.exp(-0.5 / var) / math.sqrt(2 * math.pi * var)))
     assert r.size == 1
+
+
+def test_ellipse_samples_lie_on_their_iso_range_ellipses():
+    """Bistatic and monostatic: |p - tx| + |p - rx| = z for every sample (no range spread)."""
+    tx = np.array([[0.0, 0.0], [1.0, 1.0]])
+    rx = np.array([[4.0, 3.0], [1.0, 1.0]])
+    z = np.array([9.0, 6.0])
+    pick = np.arange(200) % 2
+    p = ellipse_samples(tx, rx, z, pick, 0.0, np.random.default_rng(11))
+    np.testing.assert_allclose(np.linalg.norm(p - tx[pick], axis=1) + np.linalg.norm(p - rx[pick], axis=1), z[pick])
+    trk = ParticleFilterTracker(pf_config(init_std_m=0.2, n_particles=4000), layout([(0.0, 0.0)], area=(-9, 9, -9, 9)))
+    trk.reset(np.random.default_rng(12))
+    trk.step([detections(0, [10.0], [0.04], [0.0])], 0.2, 1)
+    pos, _, w = trk.particles  # type: ignore[misc]
+    assert np.sqrt(w @ (np.linalg.norm(pos, axis=1) - 5.0) ** 2) < 0.25  # on the 5 m ring, weighted
 
 
 def test_systematic_resampling_counts():

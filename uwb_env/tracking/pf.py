@@ -52,7 +52,8 @@ saw nothing contributes 1 - P_D(p) (negative information). The weights are updat
 Resampling: systematic, when the effective sample size 1 / sum w^2 falls below ``resample_threshold`` N_p.
 
 Initialisation: at the first scan with any detection, N_p particles uniform over the surveillance area (with
-``init_std_m > 0``: on the range rings of that scan's detections, Gaussian across the ring) are weighted by that
+``init_std_m > 0``: on the iso-range ellipses of that scan's detections -- a monostatic radar's circles --,
+Gaussian across them, ``ellipse_samples``) are weighted by that
 scan's likelihood. From then on the filter has one track; it is confirmed while the ESS after the update is at
 least ``confirm_ess_fraction`` N_p (a cloud whose weights collapse onto a handful of particles no longer
 represents the belief; the track stays, tentative, and recovers by resampling and moving).
@@ -244,6 +245,27 @@ def pair_log_likelihood(
     return top + np.log(np.exp(log_miss - top) + np.exp(log_det - top[:, None]).sum(axis=1))
 
 
+def ellipse_samples(
+    tx: FloatArray, rx: FloatArray, z: FloatArray, pick: FloatArray, std_m: float, rng: np.random.Generator
+) -> FloatArray:
+    """``(N, 2)`` points on the iso-range ellipses of the detections ``pick`` (N,), angle uniform.
+
+    Detections: bistatic ranges ``z`` (M,), foci ``tx``, ``rx`` (M, 2); each point's range is spread by
+    N(0, ``std_m``^2). Ellipse |p - tx| + |p - rx| = r: centre (tx + rx) / 2, semi-axes a = r / 2 and
+    b = sqrt(a^2 - f^2), f the half baseline, rotated to the baseline; a monostatic radar's: the circle of radius r / 2.
+    """
+    t, r = tx[pick], rx[pick]
+    f = 0.5 * np.linalg.norm(r - t, axis=1)
+    a = np.maximum(0.5 * np.abs(z[pick] + std_m * rng.standard_normal(pick.size)), f)
+    b = np.sqrt(a * a - f * f)
+    theta = rng.uniform(-math.pi, math.pi, pick.size)
+    base = r - t
+    phi = np.arctan2(base[:, 1], base[:, 0])
+    u, v = a * np.cos(theta), b * np.sin(theta)
+    c = 0.5 * (t + r)
+    return c + np.column_stack((u * np.cos(phi) - v * np.sin(phi), u * np.sin(phi) + v * np.cos(phi)))
+
+
 def systematic_resample(weights: FloatArray, rng: np.random.Generator) -> FloatArray:
     """Indices ``(N,)`` of systematic resampling of normalised ``weights (N,)`` (one uniform draw)."""
     n = weights.shape[0]
@@ -400,7 +422,9 @@ class ParticleFilterTracker:
             if n == 0:
                 total += np.log1p(-pd)
                 continue
-            z = np.asarray(det.z, float)[:, 0]
+            if det.measurement_names[0] != "bistatic_range":
+                raise ValueError(f"pf: the first measurement must be the bistatic range, got {det.measurement_names}")
+            z = np.asarray(det.z, float)[:, 0]  # seed 002 measures ToA only: other columns are not used
             r_var = np.asarray(det.R, float)[:, 0, 0]
             seed_var = (2.0 * pf.perception_std_m) ** 2
             var = {"snr": r_var, "seed": np.full(n, seed_var), "both": r_var + seed_var}[pf.likelihood]
@@ -415,15 +439,12 @@ class ParticleFilterTracker:
         pf, rng = self.pf, self._rng
         n = pf.n_particles
         x0, x1, y0, y1 = self.area
-        rings = [(d, j) for d in detections for j in range(len(d))]
-        if pf.init_std_m > 0.0 and rings:
-            # on the range rings of the scan's detections (monostatic ring: radius z / 2 about the radar)
-            pick = rng.integers(0, len(rings), n)
-            det_t = np.array([self.tx_pos[rings[i][0].tx] for i in range(len(rings))])
-            det_r = np.array([0.5 * float(rings[i][0].z[rings[i][1], 0]) for i in range(len(rings))])
-            theta = rng.uniform(-math.pi, math.pi, n)
-            radius = np.abs(det_r[pick] + pf.init_std_m * rng.standard_normal(n))
-            pos = det_t[pick] + radius[:, None] * np.column_stack((np.cos(theta), np.sin(theta)))
+        z = np.concatenate([np.asarray(d.z, float)[:, 0] for d in detections])  # the scan's pairs: a handful
+        if pf.init_std_m > 0.0 and z.size:
+            counts = [len(d) for d in detections]
+            tx = np.repeat(np.array([d.tx for d in detections], np.int64), counts)
+            rx = np.repeat(np.array([d.rx for d in detections], np.int64), counts)
+            pos = ellipse_samples(self.tx_pos[tx], self.rx_pos[rx], z, rng.integers(0, z.size, n), pf.init_std_m, rng)
             pos = np.column_stack((pos[:, 0].clip(x0, x1), pos[:, 1].clip(y0, y1)))
         else:
             pos = np.column_stack((rng.uniform(x0, x1, n), rng.uniform(y0, y1, n)))
