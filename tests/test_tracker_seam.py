@@ -151,10 +151,12 @@ def test_env_checker_passes_with_every_tracker(kind):
     check_env(gym.make("uwb_env/IndoorSensorSubset-v0", tracker=kind).unwrapped, skip_render_check=True)
 
 
+@pytest.mark.parametrize("q2", [1.0, "pda"])
 @pytest.mark.parametrize("kind", AVAILABLE)
-def test_lookahead_is_defined_for_every_tracker(kind):
-    """The myopic costs exist mid-episode, are finite, and differ between plans (they carry the sensor model)."""
-    env = gym.make("uwb_env/IndoorSensorSubset-v0", tracker=kind).unwrapped
+def test_lookahead_is_defined_for_every_tracker(kind, q2):
+    """The myopic costs exist mid-episode, are finite, and differ between plans (they carry the sensor model);
+    with q_2 = "pda" too (the clutter map of range-only impulse measurements)."""
+    env = gym.make("uwb_env/IndoorSensorSubset-v0", tracker=kind, lookahead_q2=q2).unwrapped
     env.reset(seed=2)
     for k in range(20):
         env.step(k % env.action_space.n)
@@ -166,3 +168,15 @@ def test_lookahead_is_defined_for_every_tracker(kind):
 def test_kind_overrides_apply_to_scenarios():
     cfg = apply_overrides(scenarios.get("indoor-rsn"), {"tracker.kind": "phd"})
     assert cfg.tracker.kind == "phd"
+
+
+def test_campaign_schemes_name_the_tracker(tmp_path):
+    """``SCHEDULER@KIND`` plays each tracker in one paired campaign; each run file carries its tracker's models."""
+    from uwb_env.agents.campaign import Campaign, run_campaign
+
+    schemes = (*(f"myopic@{k}" for k in AVAILABLE), "round-robin")
+    run_campaign(Campaign("uwb_env/IndoorSensorSubset-v0", schemes, "round-robin", runs=2), tmp_path, progress=False)
+    for kind in AVAILABLE:
+        header = (tmp_path / "runs" / f"myopic__{kind}" / "seed-0.csv").read_text().splitlines()[0].split(",")
+        env = gym.make("uwb_env/IndoorSensorSubset-v0", tracker=kind).unwrapped
+        assert header[-len(env.sim.tracker.model_names) :] == [f"mu:{m}" for m in env.sim.tracker.model_names]

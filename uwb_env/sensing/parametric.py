@@ -1255,6 +1255,7 @@ class ParametricSensor:
             rows[:, col["az"]] = np.tile(z[:, m], W)
         Rf = R.reshape(W * N, *R.shape[2:])
         ridge, rdot_var = (Rf[:, 0, 1] / Rf[:, 1, 1], Rf[:, 1, 1]) if m == 2 else (0.0, None)
+        period = None  # range-only waveforms (impulses) measure no range-rate
         if m == 2:  # each waveform's folded range-rate (waveforms: R's W waveforms; default the whole library)
             w = np.arange(len(self.library)) if waveforms is None else np.asarray(waveforms, dtype=np.int64).ravel()
             if w.size != W:
