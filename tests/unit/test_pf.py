@@ -139,9 +139,10 @@ def test_sdl_displacements_have_the_seeds_moments():
 def test_sdl_velocity_is_the_window_average_of_the_estimates():
     """v_el = (p^_{k-1} - p^_{k-1-N_v}) / (N_v T), None before N_v + 1 estimates (eq. 17 as read)."""
     est = np.array([[0.0, 0.0], [0.3, 0.0], [0.5, 0.1], [0.6, 0.4]])
-    np.testing.assert_allclose(sdl_velocity(est, 2, 0.2), (est[3] - est[1]) / 0.4)
-    np.testing.assert_allclose(sdl_velocity(est, 3, 0.2), (est[3] - est[0]) / 0.6)
-    assert sdl_velocity(est, 4, 0.2) is None
+    times = np.array([0.2, 0.4, 0.6, 0.8])
+    np.testing.assert_allclose(sdl_velocity(est, times, 2), (est[3] - est[1]) / 0.4)
+    np.testing.assert_allclose(sdl_velocity(est, times, 3), (est[3] - est[0]) / 0.6)
+    assert sdl_velocity(est, times, 4) is None
 
 
 point = st.tuples(st.floats(-5.0, 5.0), st.floats(-5.0, 5.0))
@@ -292,9 +293,9 @@ def test_pf_config_rejects_bad_values(bad):
         PfConfig(**bad)
 
 
-def _episode_tracker(rng: np.random.Generator | None, n: int = 300, scans: int = 6):
+def _episode_tracker(rng: np.random.Generator | None, n: int = 300, scans: int = 6, **pf: object):
     lay = layout([(0.0, 0.0), (10.0, 0.0), (0.0, 10.0)])
-    trk = ParticleFilterTracker(pf_config(n_particles=n), lay, None)
+    trk = ParticleFilterTracker(pf_config(n_particles=n, **pf), lay, None)
     trk.reset(rng)
     target = np.array([4.0, 3.0])
     out = []
@@ -320,14 +321,20 @@ def test_determinism_under_the_same_stream():
     assert np.linalg.norm(a[-1, 0, 0, [0, 2]] - np.array([5.2, 3.0])) < 0.5  # and it tracks
 
 
-def test_scored_prediction_is_pure_and_the_next_clouds_moments():
-    """scored_prediction draws nothing, and equals the weighted moments of the cloud one scan of no data later."""
-    trk, _ = _episode_tracker(np.random.default_rng(9), n=40_000, scans=3)
+@pytest.mark.parametrize("mobility", ["skdu", "sdl"])
+def test_scored_prediction_is_pure_and_the_next_clouds_moments(mobility):
+    """scored_prediction draws nothing, and equals the weighted moments of the cloud one scan of no data later.
+
+    SKDU: velocity d / T of mean 0 and variance q / T^2; SDL (window 2, full after 3 scans): mean v_el.
+    """
+    trk, _ = _episode_tracker(np.random.default_rng(9), n=40_000, scans=4, mobility=mobility, sdl_window=2)
     state = copy.deepcopy(trk._rng.bit_generator.state)
     x_before = trk.tracks.x.copy()
-    pred = trk.scored_prediction(0.8, 4)
-    assert trk._rng.bit_generator.state == state and np.array_equal(trk.tracks.x, x_before)
-    trk.step([], 0.8, 4)  # no pair listened: the particles move, the weights stay
+    pred = trk.scored_prediction(1.0, 5)
+    assert trk._rng.bit_generator.state == state
+    assert np.array_equal(trk.tracks.x, x_before)
+    est = np.asarray(trk._estimates)  # the last 3 estimates (window 2), 0.2 s apart
+    trk.step([], 1.0, 5)  # no pair listened: the particles move, the weights stay
     pos, vel, w = trk.particles  # type: ignore[misc]
     s = np.column_stack((pos[:, 0], vel[:, 0], pos[:, 1], vel[:, 1]))
     m = w @ s
@@ -336,9 +343,16 @@ def test_scored_prediction_is_pure_and_the_next_clouds_moments():
     se = np.sqrt(np.diag(cov) / n_eff)
     assert np.all(np.abs(m - pred.x[0, :4]) < 5 * se)
     np.testing.assert_allclose(np.diag(cov), np.diag(pred.P[0])[:4], rtol=0.08)
-    q = 0.5 * 0.2**2 + mobility_std(trk.pf, 0.2) ** 2  # SKDU: per-axis variance of one move
+    sigma2 = mobility_std(trk.pf, 0.2) ** 2
+    if mobility == "skdu":
+        q = 0.5 * 0.2**2 + sigma2  # per-axis variance of one move
+        np.testing.assert_allclose(pred.x[0, [1, 3]], 0.0)
+    else:
+        q = sigma2
+        v_el = (est[-1] - est[-3]) / 0.4
+        np.testing.assert_allclose(pred.x[0, [1, 3]], v_el)
+        assert abs(v_el[0] - 1.0) < 0.3  # the target walks at 1 m/s along x
     np.testing.assert_allclose(pred.P[0, [1, 3], [1, 3]], q / 0.2**2)
-    np.testing.assert_allclose(pred.x[0, [1, 3]], 0.0)
 
 
 def test_predict_gaussians_moment_maps():

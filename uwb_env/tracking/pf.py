@@ -158,14 +158,16 @@ def sdl_displacements(n: int, velocity: FloatArray, dt: float, sigma_m: float, r
     return np.asarray(velocity, float) * dt + sigma_m * rng.standard_normal((n, 2))
 
 
-def sdl_velocity(estimates: FloatArray, window: int, dt: float) -> FloatArray | None:
+def sdl_velocity(estimates: FloatArray, times: FloatArray, window: int) -> FloatArray | None:
     """v_el (eq. 17 as read, module docstring): ``(2,)`` mean velocity over the last ``window`` steps.
 
-    ``estimates``: ``(K, 2)`` past position estimates, oldest first; None with fewer than ``window + 1``.
+    ``estimates``: ``(K, 2)`` past position estimates, oldest first, at ``times`` (K,) [s] (N_v T apart at a
+    regular scan period T); None with fewer than ``window + 1``.
     """
     if estimates.shape[0] < window + 1:
         return None
-    return (estimates[-1] - estimates[-1 - window]) / (window * dt)
+    span = times[-1] - times[-1 - window]
+    return (estimates[-1] - estimates[-1 - window]) / span if span > 0.0 else None
 
 
 def displacement_moments(pf: PfConfig, dt: float, velocity: FloatArray | None) -> tuple[FloatArray, float]:
@@ -367,6 +369,7 @@ class ParticleFilterTracker:
         self._w: FloatArray | None = None
         self._time: float | None = None
         self._estimates: list[FloatArray] = []
+        self._estimate_times: list[float] = []
         self._born = 0
         self._age = 0
         self.ess = 0.0
@@ -385,16 +388,16 @@ class ParticleFilterTracker:
             return None
         return self._pos.copy(), self._vel.copy(), self._w.copy()
 
-    def _velocity(self, dt: float) -> FloatArray | None:
+    def _velocity(self) -> FloatArray | None:
         """SDL's learnt velocity (None: SKDU, or the window is not full yet)."""
         if self.pf.mobility != "sdl":
             return None
-        return sdl_velocity(np.asarray(self._estimates), self.pf.sdl_window, dt)
+        return sdl_velocity(np.asarray(self._estimates), np.asarray(self._estimate_times), self.pf.sdl_window)
 
     def _draw(self, dt: float) -> Callable[[int], FloatArray]:
         pf, rng = self.pf, self._rng
         sigma = mobility_std(pf, dt)
-        velocity = self._velocity(dt)
+        velocity = self._velocity()
         if velocity is None:
             return lambda n: skdu_displacements(n, pf.speed_mps, dt, sigma, rng)
         return lambda n: sdl_displacements(n, velocity, dt, sigma, rng)
@@ -489,7 +492,8 @@ class ParticleFilterTracker:
             w = np.full(pf.n_particles, 1.0 / pf.n_particles)
         self._w = w
         self._estimates.append(x[[0, 2]].copy())
-        del self._estimates[: -(pf.sdl_window + 1)]
+        self._estimate_times.append(time_s)
+        del self._estimates[: -(pf.sdl_window + 1)], self._estimate_times[: -(pf.sdl_window + 1)]
         self._tracks = TrackSet(
             ids=np.zeros(1, np.int64),
             confirmed=np.array([confirmed]),
@@ -511,7 +515,7 @@ class ParticleFilterTracker:
         dt = time_s - (self._time if self._time is not None else time_s)
         x, P = _moment_state(self._pos, self._vel, self._w)
         if dt > 0.0:
-            d_mean, d_var = displacement_moments(self.pf, dt, self._velocity(dt))
+            d_mean, d_var = displacement_moments(self.pf, dt, self._velocity())
             x, P = _predict_moments(x[None], P[None], d_mean[None], d_var, dt)
         else:
             x, P = x[None], P[None]
