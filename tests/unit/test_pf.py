@@ -454,3 +454,27 @@ def test_tracking_run_matches_the_seeds_fig2_eighty_percent_point():
     assert 0.5 <= error_at_outage(los) <= 2.0
     olos = navigation_errors(cfg, PfConfig(), seeds=(0, 1, 2))
     assert error_at_outage(olos) <= 2.0 * 2.3
+
+
+def test_simulator_and_lookahead_run_the_pf():
+    """The simulator builds the PF from the registry and resets it on the tracker stream (same seed, same tracks);
+    the scheduling environment's lookahead scores plans through the PF's seam."""
+    from uwb_env.envs.scheduling import UWBSchedulingEnv
+    from uwb_env.sim import Simulator, round_robin
+
+    cfg = dataclasses.replace(scenarios.get("indoor-monostatic"), n_scans=15)
+    sim = Simulator(cfg, dataclasses.replace(cfg.tracker, kind="pf"))
+    assert isinstance(sim.tracker, ParticleFilterTracker)
+    runs = []
+    for _ in range(2):
+        sim.reset(3)
+        policy = round_robin(sim.sensor)
+        runs.append([sim.step(policy(sim.k + 1)).tracks.x.copy() for _ in range(cfg.n_scans)])
+    np.testing.assert_array_equal(np.concatenate(runs[0]), np.concatenate(runs[1]))
+    err = np.linalg.norm(runs[0][-1][0, 0, [0, 2]] - sim.truth.states[cfg.n_scans, 0, [0, 2]])
+    assert err < 2.0
+    env = UWBSchedulingEnv(cfg, tracker="pf", include_lookahead=True)
+    obs, _ = env.reset(seed=4)
+    for _ in range(3):
+        obs, reward, *_ = env.step(env.action_space.sample())
+    assert np.isfinite(obs).all() and np.isfinite(reward)
