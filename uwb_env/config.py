@@ -969,15 +969,18 @@ class PfConfig:
     Owned by the particle filter's module; every field is validated here like the rest of the configuration.
     Defaults are the seed's (section V) where it gives one:
 
-    - ``n_particles`` N_p; ``mobility``: ``skdu`` (speed known, direction unknown, eq. 16) or ``sdl`` (speed and
-      direction learnt from the last ``sdl_window`` = N_v = 5 estimates, eqs. 17-18);
+    - ``n_particles`` N_p (the seed does not print it; 1000 is ours);
+    - ``mobility``: ``skdu`` (speed known, direction unknown, eq. 16) or ``sdl`` (speed and direction learnt from
+      the last ``sdl_window`` = N_v = 5 estimates, eqs. 17-18);
     - ``speed_mps``: the known speed v of SKDU (the seed's person walks at 1 m/s);
     - ``mobility_std_m``: sigma_m of the Gaussian mobility model (eq. 15); 0 (default) applies the seed's rule
       "with probability ``mobility_containment`` = 0.9 the new position is within a circle of radius v T":
       sigma_m = v T / sqrt(-2 ln(1 - 0.9)) = 0.093 m at T = 0.2 s (the seed's printed "1m" is read as this rule);
-    - ``likelihood``: the perception model's range std: ``snr`` (each detection's own R, the three-region
-      sigma(SNR) of the energy detector, seed 002 eq. 9), ``seed`` (the fixed sigma_p = ``perception_std_m`` =
-      0.8 m on the one-way distance, eq. 20) or ``both`` (their variances added);
+    - ``likelihood``: the perception model's range std: ``snr`` (default: each detection's own R, the
+      three-region sigma(SNR) of the energy detector, seed 002 eq. 9), ``seed`` (the fixed sigma_p =
+      ``perception_std_m`` = 0.8 m on the one-way distance, eq. 20) or ``both`` (their variances added). The
+      seed's fixed sigma_p reproduces its LOS Fig. 2 but loses the person behind walls, where most detections
+      have the several-metre spread of the low-SNR region (``uwb_env.tracking.pf``);
     - ``wall_bias``: the predicted range of a particle includes the walls' excess delay on its radar legs
       (section II-D, mu_i(p)); ``respect_walls``: a move that would cross a wall segment is redrawn up to
       ``wall_redraws`` times, then the particle stays where it was (our choice: the seed's person does not walk
@@ -985,12 +988,10 @@ class PfConfig:
     - ``resample_threshold``: systematic resampling when the effective sample size falls below this fraction of
       N_p; ``confirm_ess_fraction``: the track is reported confirmed while the ESS after the update is at least
       this fraction of N_p;
-    - ``init_std_m``: the position spread of the particles drawn around each range ring of the first scan with
+    - ``init_std_m``: the range spread of the particles drawn on the iso-range rings of the first scan with
       detections (0: uniform over the surveillance area, weighted by the first scan's likelihood);
     - ``detection_probability_floor``: the smallest Pd the likelihood uses where the sensor model says 0 (a
-      detection far from the model's coverage must not annihilate every particle);
-    - ``neo_threshold_m``: the navigation error e_th at which ``uwb_env.metrics.navigation_error_outage`` is
-      quoted by default (the seed's Figs. 2-4 read their 80 % point near 1 m).
+      detection far from the model's coverage must not annihilate every particle).
     """
 
     n_particles: int = 1000
@@ -1008,7 +1009,6 @@ class PfConfig:
     confirm_ess_fraction: float = 0.05
     init_std_m: float = 0.0
     detection_probability_floor: float = 0.05
-    neo_threshold_m: float = 1.0
 
     def __post_init__(self) -> None:
         _int_at_least("PfConfig", "n_particles", self.n_particles, 1)
@@ -1026,7 +1026,6 @@ class PfConfig:
         _in_range("PfConfig", "confirm_ess_fraction", self.confirm_ess_fraction, 0.0, 1.0)
         _in_range("PfConfig", "init_std_m", self.init_std_m, 0.0, 1e3)
         _in_range("PfConfig", "detection_probability_floor", self.detection_probability_floor, 0.0, 1.0)
-        _positive("PfConfig", "neo_threshold_m", self.neo_threshold_m)
         if self.mobility_std_m == 0.0 and self.speed_mps == 0.0:
             _fail("PfConfig", "mobility_std_m", self.mobility_std_m, "> 0 when speed_mps = 0 (the seed's rule gives 0)")
 
