@@ -356,7 +356,7 @@ def test_scored_prediction_is_pure_and_the_next_clouds_moments(mobility):
 
 
 def test_predict_gaussians_moment_maps():
-    """SKDU: P_pos + q I, velocity d / dt ~ (0, q / dt^2); SDL: the mean moves by its velocity x dt."""
+    """SKDU: P_pos + q I, velocity d / dt ~ (0, q / dt^2); SDL (full window): the mean moves by its velocity dt."""
     lay = layout([(0.0, 0.0)])
     x = np.array([[1.0, 0.5, 2.0, -0.5, 0.0, 0.0]])
     P = np.diag([0.1, 0.2, 0.3, 0.4, 1e-4, 1e-4])[None]
@@ -367,8 +367,13 @@ def test_predict_gaussians_moment_maps():
     np.testing.assert_allclose(skdu.P[0, [0, 2], [0, 2]], [0.1 + q, 0.3 + q])
     np.testing.assert_allclose(skdu.P[0, [1, 3], [1, 3]], q / 0.04)
     assert np.all(np.linalg.eigvalsh(skdu.P[0]) > 0)
-    sdl = ParticleFilterTracker(pf_config(mobility="sdl"), lay).predict_gaussians(pred, 0.2, 2)
+    sdl_tracker = ParticleFilterTracker(pf_config(mobility="sdl", sdl_window=2), lay)
+    np.testing.assert_allclose(sdl_tracker.predict_gaussians(pred, 0.2, 2).P, skdu.P)  # window empty: as SKDU
+    sdl_tracker._estimates = [np.zeros(2), np.zeros(2), np.zeros(2)]  # a full window (2 steps)
+    sdl_tracker._estimate_times = [0.2, 0.4, 0.6]
+    sdl = sdl_tracker.predict_gaussians(pred, 0.2, 2)
     np.testing.assert_allclose(sdl.x[0], [1.1, 0.5, 1.9, -0.5, 0.0, 0.0])
+    np.testing.assert_allclose(sdl.P[0, [0, 2], [0, 2]], np.array([0.1, 0.3]) + mobility_std(PfConfig(), 0.2) ** 2)
     assert np.all(np.linalg.eigvalsh(sdl.P[0]) > 0)
 
 

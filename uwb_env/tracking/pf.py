@@ -61,10 +61,11 @@ represents the belief; the track stays, tentative, and recovers by resampling an
 Estimate: the seed estimates the position as the maximiser of the belief (MAP); we report the weighted mean and
 covariance of the particles (MMSE; the MAP of a particle cloud needs a density estimate), which is what the other
 trackers' consumers read. ``scored_prediction`` is the exact first and second moment of the next cloud (the
-mobility model's displacement is independent of the particle), computed analytically, so it neither changes the
-filter nor draws from its generator. ``predict_gaussians`` applies the same moment map to a Gaussian: position
-p + d, velocity d / dt, with d ~ (E[d], Cov[d]) of the model (SDL: E[d] = the Gaussian's mean velocity x dt, the
-learnt velocity held over the step). The lookahead's expected update is that of these Gaussians under the UKF
+mobility model's displacement is independent of the particle; exact away from walls -- a move redrawn at a wall
+is not in the moments), computed analytically, so it neither changes the filter nor draws from its generator.
+``predict_gaussians`` applies the same moment map to a Gaussian: position p + d, velocity d / dt, with
+d ~ (E[d], Cov[d]) of the model (SDL with a full window: E[d] = the Gaussian's mean velocity x dt, the learnt
+velocity held over the step). The lookahead's expected update is that of these Gaussians under the UKF
 (``filter = "ukf"``, ``tracking.expectation``).
 
 Against the seed (``python benchmarks/pf_throughput.py --neo``: 80 % point of the NEO over 5 random 20 m walks on
@@ -543,7 +544,7 @@ class ParticleFilterTracker:
         if dt <= 0.0:
             return pred
         x = np.asarray(pred.x, float)
-        if self.pf.mobility == "sdl":
+        if self.pf.mobility == "sdl" and self._velocity() is not None:  # SDL moves as SKDU until its window fills
             d_mean = x[:, [1, 3]] * dt
             d_var = mobility_std(self.pf, dt) ** 2
         else:
