@@ -72,16 +72,16 @@ Against the seed (``python benchmarks/pf_throughput.py --neo``: 80 % point of th
 ``indoor-monostatic``, T = 0.2 s, SKDU; LOS = the same floor with walls transparent to the radio). With the seed's
 own perception model (likelihood "seed") the LOS Fig. 2 is reproduced, trend included: 0.72 / 1.03 / 1.32 m for
 N_pulse 32 / 128 / 512 against the seed's 0.8 / 1.0 / 1.2 m; Fig. 3's T_int trend is flatter (0.96 / 1.03 /
-1.09 m against 0.6 / 0.9 / 1.5 m). Behind walls (OLOS) the fixed sigma_p loses the person (4.7-5.7 m against the
-seed's 2.0-2.9 m): most detections then come from the low-SNR region of eq. 9, metres wide. The default likelihood
-("snr", each detection's own sigma(SNR)) does better than the seed everywhere: LOS 0.37 / 0.53 / 0.70 m, OLOS
-0.84 / 0.92 / 1.11 m (N_pulse) and 0.72 / 0.92 / 0.97 m (T_int 2 / 4 / 6 ns). Fig. 4 (OLOS): SKDU 0.94 / 0.92 /
-1.45 m at T = 0.5 / 0.2 / 0.1 s (seed: below 2.7 m at 0.5 and 0.2 s); SDL 2.81 / 3.57 / 5.47 m -- worse than
-SKDU at every T, where the seed finds them equal at 0.2 s and SDL best at 0.1 s: the window velocity of N_v = 5
-noisy estimates spans only N_v T (0.5 s at T = 0.1 s), and with sigma_m ~ v T (0.047 m at 0.1 s) the particles
-cannot leave a wrong learnt velocity. The seed's sigma_m also makes the SKDU cloud overconfident: position NEES
-~6 (2 expected) at T = 0.2 s on ``indoor-monostatic``, ~2.5 with sigma_m = 0.2 m (which also lowers the 80 %
-point to 0.72 m).
+1.09 m against 0.6 / 0.9 / 1.5 m). Behind walls (OLOS) the fixed sigma_p loses the person (4.7-5.7 m against
+the seed's 2.0-2.9 m; 1.10 m at N_pulse 32): most detections then come from the low-SNR region of eq. 9, metres
+wide. The default likelihood ("snr", each detection's own sigma(SNR)) does better than the seed everywhere: LOS
+0.37 / 0.53 / 0.70 m, OLOS 0.84 / 0.92 / 1.11 m (N_pulse) and 0.72 / 0.92 / 0.97 m (T_int 2 / 4 / 6 ns).
+Fig. 4 (OLOS): SKDU 0.94 / 0.92 / 1.45 m at T = 0.5 / 0.2 / 0.1 s (seed: below 2.7 m at 0.5 and 0.2 s); SDL
+2.81 / 3.57 / 5.47 m -- worse than SKDU at every T, where the seed finds them equal at 0.2 s and SDL best at
+0.1 s: the window velocity of N_v = 5 noisy estimates spans only N_v T (0.5 s at T = 0.1 s), and with
+sigma_m ~ v T (0.047 m at 0.1 s) the particles cannot leave a wrong learnt velocity. The seed's sigma_m also makes
+the SKDU cloud overconfident: position NEES ~6 (2 expected) at T = 0.2 s on ``indoor-monostatic``, ~2.5 with
+sigma_m = 0.2 m (which also lowers the 80 % point to 0.72 m).
 """
 
 from __future__ import annotations
