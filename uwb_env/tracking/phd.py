@@ -33,13 +33,15 @@ One scan (``PhdTracker.step``), in the order data flows:
    of PHD mass (the expected number of targets, the sum of the weights), within [``min_particles``,
    ``max_particles``]; the mass is kept.
 5. Peak extraction (seed: "the M_hat largest peaks of the PHD ... through an EM algorithm fitting the discretised
-   PHD with M_hat Gaussians"): M_hat = round(sum of weights). EM on the weighted particles in the 4-D state,
-   initialised by assigning each particle to the nearest seed in position; seeds are the measurements in the order
-   of the PHD mass they hold (C(z) + nu_b) / L(z), then the tracks' predicted positions, then particles drawn from
-   the generator. Up to ``em_extra_components`` more components than M_hat (seeded at measurements holding at least
-   ``em_min_seed_mass``) absorb the clutter-born mass, which would otherwise pull a single Gaussian towards itself;
-   the M_hat heaviest components are the estimates (mean and covariance; acceleration zero with variance
-   ``tracker.ZERO_ACCELERATION_STD``^2).
+   PHD with M_hat Gaussians") from the updated persistent particles, before the newborn join the cloud: the newborn
+   are the birth intensity of the next scan, not targets of this one (Ristic, Clark, Vo and Vo 2012; counted here,
+   every isolated false position became an estimate of mass nu_b / (kappa + nu_b)). M_hat = round(persistent mass).
+   EM on the weighted particles in the 4-D state, initialised by assigning each particle to the nearest seed in
+   position; seeds are the measurements in the order of the persistent mass they take C(z) / L(z), then the tracks'
+   predicted positions, then particles drawn from the generator. Up to ``em_extra_components`` more components than
+   M_hat (seeded at measurements holding at least ``em_min_seed_mass``) absorb the clutter mass, which would
+   otherwise pull a single Gaussian towards itself; the M_hat heaviest components are the estimates (mean and
+   covariance; acceleration zero with variance ``tracker.ZERO_ACCELERATION_STD``^2). Then the resampling of step 4.
 6. Association (seed section V-E): the minimum-cost assignment of estimates to the tracks' predicted heads
    (Hungarian algorithm, cost the position distance) is valid as a whole when its total cost is at most
    ``max_hypothesis_cost_m``; otherwise each pair is valid iff the estimate lies in the chi-square gate
@@ -275,6 +277,10 @@ class PhdTracker:
         pos = self.particles[:, [0, 2]]
         pd = self._pd(pos) if pos.shape[0] else np.zeros(0)
         w, newborn, held = phd_update(pos, self.weights, pd, z, R, kappa, phd.birth_intensity_per_m2)
+        # Peaks of the persistent intensity only: the newborn particles are the birth of the next scan, not targets
+        # of this one (Ristic, Clark, Vo and Vo 2012, section III); counting them made every isolated false position
+        # an estimate of mass nu_b / (kappa + nu_b).
+        self.estimates = self._extract(self.particles, w, z, held)
         X, W = self.particles, w
         if z.shape[0]:
             J = phd.particles_per_birth
@@ -286,7 +292,6 @@ class PhdTracker:
             X = np.concatenate([X, born.reshape(-1, 4)])
             W = np.concatenate([W, np.repeat(newborn / J, J)])
         self._resample(X, W)
-        self.estimates = self._extract(z, newborn + held)
         return self._associate(*self.estimates, scan_index)
 
     def measurements(self, detections: Sequence[Detections]) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -379,13 +384,14 @@ class PhdTracker:
         self.particles = X[idx]
         self.weights = np.full(n, mass / n)
 
-    def _extract(self, z: FloatArray, z_mass: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    def _extract(
+        self, X: FloatArray, w: FloatArray, z: FloatArray, z_mass: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
         """EM peak extraction (module docstring, step 5).
 
         Returns masses ``(K,)``, states ``(K, 6)`` and covariances ``(K, 6, 6)`` of the K = round(mass) peaks.
         """
         phd = self.phd
-        X, w = self.particles, self.weights
         m_hat = round(float(w.sum()))
         if m_hat == 0 or X.shape[0] == 0:
             return np.zeros(0), np.zeros((0, 6)), np.zeros((0, 6, 6))
