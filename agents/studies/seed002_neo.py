@@ -7,8 +7,10 @@ seed s being the truth stream's draw for episode seed s, the same walk in every 
 - ``tint``: T_int = 2 / 4 / 6 ns, Npulse = 128, T = 0.2 s, SKDU; LOS and OLOS;
 - ``mobility``: SKDU against SDL at T = 0.5 / 0.2 / 0.1 s, T_int = 4 ns, Npulse = 128, OLOS.
 
-LOS is the seed's "same environment area and nodes deployment ... in the absence of walls": the scenario without its
-walls. OLOS is the scenario as registered (concrete walls with doors). Every radar transmits the waveform and
+LOS is the seed's "same environment area and nodes deployment ... in the absence of walls": the walls made
+transparent to the radio (0 dB, no excess delay), so the person walks the same rooms and doors (the walk is drawn
+with the floor plan: without walls it would leave the building) and every radar sees it. OLOS is the scenario as
+registered (concrete walls with doors). Every radar transmits the waveform and
 listens each scan (the seed schedules nothing). The navigation error e = |p_hat - p| is taken at every scan from
 the first at which the filter holds an estimate; a scan without an estimate after that counts as an outage at every
 threshold (it is reported). The episode has round(20 m / (1 m/s) / T) scans.
@@ -29,12 +31,14 @@ from pathlib import Path
 import numpy as np
 
 from uwb_env import scenarios
-from uwb_env.config import ScenarioConfig
+from uwb_env.config import MaterialConfig, ScenarioConfig
 from uwb_env.metrics import error_at_outage, navigation_error_outage
 from uwb_env.sensing.records import ScanPlan
 from uwb_env.sim import Simulator
 
 THRESHOLDS = np.linspace(0.0, 6.0, 121)
+AIR = MaterialConfig("air", loss_db=0.0, excess_delay_s=0.0)
+"""LOS: the walls' material made transparent to the radio."""
 OUTAGE_M = 1e6
 """The error recorded for a scan without an estimate (after the first): an outage at every threshold."""
 
@@ -85,13 +89,14 @@ def scenario(case: Case, fidelity: str) -> tuple[ScenarioConfig, int]:
         for w in base.waveforms
     )
     index = [w.n_pulses for w in waveforms].index(case.n_pulses)
+    walls = base.walls
     tracker = dataclasses.replace(
         base.tracker, kind="pf", pf=dataclasses.replace(base.tracker.pf, mobility=case.mobility)
     )
     cfg = dataclasses.replace(
         base,
         waveforms=waveforms,
-        walls=base.walls if case.condition == "olos" else (),
+        walls=base.walls if case.condition == "olos" else tuple(dataclasses.replace(w, material=AIR) for w in walls),
         tracker=tracker,
         n_scans=round(20.0 / case.scan_period_s),
         sensing=dataclasses.replace(base.sensing, scan_period_s=case.scan_period_s, fidelity=fidelity),
@@ -135,9 +140,7 @@ def main() -> None:
     out.mkdir(parents=True, exist_ok=True)
     all_cases = cases()
     with ProcessPoolExecutor(args.workers) as pool:
-        results = list(
-            pool.map(run_case, all_cases, [args.fidelity] * len(all_cases), [args.walks] * len(all_cases))
-        )
+        results = list(pool.map(run_case, all_cases, [args.fidelity] * len(all_cases), [args.walks] * len(all_cases)))
     rows = ["experiment,condition,label," + ",".join(f"{t:.2f}" for t in THRESHOLDS)]
     table = [
         f"# Seed 002: NEO of the particle filter on indoor-monostatic ({args.fidelity} fidelity, {args.walks} walks)",
