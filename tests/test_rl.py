@@ -158,3 +158,19 @@ def test_the_command_line_names_every_algorithm_without_importing_torch():
     from uwb_env.agents.cli import ALGORITHM_NAMES
 
     assert ALGORITHM_NAMES == tuple(sorted(ALGORITHMS))
+
+
+@pytest.mark.parametrize("kind", ["phd", "pf"])
+def test_ppo_trains_and_plays_on_each_particle_tracker(tmp_path, kind):
+    """An RL scheduler on the particle trackers (env_kwargs tracker=KIND): the observation carries their one model."""
+    cfg = TrainConfig("uwb_env/IndoorSensorSubset-v0", "ppo", 128, tmp_path / "run", seed=3,
+                      env_kwargs={"tracker": kind}, overrides={**SMALL, **PER_ALGO["ppo"]})  # fmt: skip
+    model = train(cfg, progress=False)
+    assert model.num_timesteps == 128
+    agent = load_scheduler(tmp_path / "run")
+    e = gym.make("uwb_env/IndoorSensorSubset-v0", tracker=kind)
+    assert e.unwrapped.sim.tracker.kind == kind
+    obs, _ = e.reset(seed=5)
+    for _ in range(10):
+        obs, reward, *_ = e.step(agent.act(obs, e))
+        assert np.isfinite(reward)

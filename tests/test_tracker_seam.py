@@ -129,9 +129,10 @@ def test_tracker_argument_equals_the_dotted_override_and_the_default():
 
 
 @pytest.mark.parametrize("kind", AVAILABLE)
-@pytest.mark.parametrize("scheduler", ["myopic", "random"])
+@pytest.mark.parametrize("scheduler", ["myopic", "random", "lookahead-2"])
 def test_every_tracker_runs_in_the_loop(kind, scheduler):
-    """Myopic and random on IndoorSensorSubset-v0 with each tracker: finite rewards, the person tracked at times."""
+    """Myopic, random and two-step lookahead on IndoorSensorSubset-v0 with each tracker: finite rewards, the person
+    held by a confirmed track in most scans."""
     env = gym.make("uwb_env/IndoorSensorSubset-v0", tracker=kind)
     sched = make_scheduler(scheduler)
     obs, _ = env.reset(seed=1)
