@@ -646,5 +646,3 @@ def test_sandwich_r_follows_the_spread_of_a_walked_160_mhz_peak():
     curvature = np.sqrt(np.diag(np.mean(r_curvature, axis=0)))
     assert np.all((sandwich / spread > 1.0) & (sandwich / spread < 1.4)), sandwich / spread
     assert curvature[0] / spread[0] < 0.55  # the defect the sandwich mends
-
-

@@ -110,7 +110,7 @@ def numerical_train_fim(kappa: float, gamma: float, snr: float, n_pulses: int, p
     def mu(tau, om, ph):
         v = (u[None] - tau).repeat(1, 0) + 0 * centres[:, None]
         env = (math.pi * kappa**2) ** -0.25 * np.exp((1j * gamma - 0.5 / kappa**2) * v**2) / math.sqrt(n_pulses)
-        return (env.ravel() * np.exp(1j * (om * t + ph)))
+        return env.ravel() * np.exp(1j * (om * t + ph))
 
     steps = (kappa * 1e-4, 1e-4 / (n_pulses * pri), 1e-4)
     grads = []
