@@ -105,3 +105,30 @@ def gaussian_expected_update(
     ):
         raise np.linalg.LinAlgError("lookahead: a covariance is not positive definite")
     return Pa
+
+
+class GaussianLookahead:
+    """The protocol's ``expected_update`` for a tracker whose ``filter`` names its linearisation (``"ukf"``/``"ekf"``).
+
+    Every tracker of the project inherits it: the IMM tracker for its combined Gaussians, the particle trackers for
+    their moment-matched ones (``uwb_env.tracking.protocol``).
+    """
+
+    filter: str
+
+    def expected_update(
+        self,
+        Pa: FloatArray,
+        x: FloatArray,
+        P: FloatArray,
+        names: tuple[str, ...],
+        tx_pos: FloatArray,
+        rx_pos: FloatArray,
+        R: FloatArray,
+        pd: FloatArray,
+        reduction: ReductionModel,
+        rho: FloatArray,
+        period: FloatArray,
+    ) -> FloatArray:
+        """One pair's expected update of ``Pa (A, N, 6, 6)`` (``gaussian_expected_update`` with ``self.filter``)."""
+        return gaussian_expected_update(self.filter, Pa, x, P, names, tx_pos, rx_pos, R, pd, reduction, rho, period)

@@ -75,7 +75,7 @@ from uwb_env.localization import locate
 from uwb_env.scene.layout import SceneLayout
 from uwb_env.scene.motion_models import model_transition, process_noise
 from uwb_env.sensing.records import Detections
-from uwb_env.tracking.expectation import gaussian_expected_update
+from uwb_env.tracking.expectation import GaussianLookahead
 from uwb_env.tracking.protocol import Prediction
 from uwb_env.tracking.tracker import ZERO_ACCELERATION_STD, TrackSet
 from uwb_env.typing import BoolArray, FloatArray, IntArray
@@ -183,7 +183,7 @@ def em_mixture(
 
 
 # --------------------------------------------------------------------------------------------------------- tracker
-class PhdTracker:
+class PhdTracker(GaussianLookahead):
     """Seed 000's particle PHD tracker (module docstring); a ``MultiTargetTracker``.
 
     Args:
@@ -490,33 +490,3 @@ class PhdTracker:
         """``pred`` predicted ``dt`` later with the NCV model (pure)."""
         x, P = self._predict_gaussians(pred.x, pred.P, dt)
         return Prediction(x, P, pred.mu.copy(), pred.active.copy())
-
-    def expected_update(
-        self,
-        Pa: FloatArray,
-        x: FloatArray,
-        P: FloatArray,
-        names: tuple[str, ...],
-        tx_pos: FloatArray,
-        rx_pos: FloatArray,
-        R: FloatArray,
-        pd: FloatArray,
-        reduction: object,
-        rho: FloatArray,
-        period: FloatArray,
-    ) -> FloatArray:
-        """One pair's expected update of ``Pa`` (``expectation.gaussian_expected_update`` with the UKF)."""
-        return gaussian_expected_update(
-            self.filter,
-            Pa,
-            x,
-            P,
-            names,
-            tx_pos,
-            rx_pos,
-            R,
-            pd,
-            reduction,  # type: ignore[arg-type]
-            rho,
-            period,
-        )

@@ -18,8 +18,8 @@ A tracker (``TrackerConfig.kind``, built by ``uwb_env.tracking.registry.make_tra
 - ``expected_update(...)``: one transmitter-receiver pair's expected posterior covariance of the scored Gaussians
   under every candidate plan (``uwb_env.tracking.expectation``: the tracker's filter linearisation, UKF or EKF, at the
   predicted state, then the expected Riccati update with the plan's Pd, R and q_2). Every tracker of this project
-  delegates to ``expectation.gaussian_expected_update`` with the linearisation it uses (``filter``), which is how
-  the expected covariance is defined for particle trackers: the update of their moment-matched Gaussian.
+  inherits it from ``expectation.GaussianLookahead`` with the linearisation it uses (``filter``), which is how the
+  expected covariance is defined for particle trackers: the update of their moment-matched Gaussian.
 - ``cfg``: the ``TrackerConfig`` (the lookahead reads its sensor-model assumptions: assumed RCS and Swerling case,
   Pd cap, range-rate noise floor, gate probability, clutter floor).
 

@@ -44,7 +44,7 @@ from uwb_env.scene.layout import SceneLayout
 from uwb_env.scene.motion_models import model_transition, process_noise
 from uwb_env.sensing.records import Detections
 from uwb_env.tracking import compiled
-from uwb_env.tracking.expectation import ReductionModel, filter_args, gaussian_expected_update
+from uwb_env.tracking.expectation import GaussianLookahead, filter_args
 from uwb_env.tracking.imm import imm_combine, restrict_transition, switch_model_sets, switch_probabilities
 from uwb_env.tracking.initiation import (
     range_azimuth_candidates,
@@ -74,7 +74,7 @@ class _Candidates:
     time_s: float = -np.inf
 
 
-class Tracker:
+class Tracker(GaussianLookahead):
     """VS-IMM / LMIPDA multi-target tracker (component tier: configuration + kernels, state in ``tracks``).
 
     ``TrackerConfig.kind = "imm-lmipda"``: a ``uwb_env.tracking.protocol.MultiTargetTracker``.
@@ -317,23 +317,6 @@ class Tracker:
         Pj = F[None] @ P[:, None] @ np.swapaxes(F, -1, -2)[None] + Q[None]
         xp, Pp = imm_combine(mu_pred[:, a], xj, Pj)
         return Prediction(xp, symmetrise(Pp), mu_pred, mask)
-
-    def expected_update(
-        self,
-        Pa: FloatArray,
-        x: FloatArray,
-        P: FloatArray,
-        names: tuple[str, ...],
-        tx_pos: FloatArray,
-        rx_pos: FloatArray,
-        R: FloatArray,
-        pd: FloatArray,
-        reduction: ReductionModel,
-        rho: FloatArray,
-        period: FloatArray,
-    ) -> FloatArray:
-        """One pair's expected update of ``Pa (A, N, 6, 6)`` with this tracker's filter (``tracking.expectation``)."""
-        return gaussian_expected_update(self.cfg.filter, Pa, x, P, names, tx_pos, rx_pos, R, pd, reduction, rho, period)
 
     def _update(self, det: Detections) -> BoolArray:
         """LMIPDA + PDA update of every track with one pair's detections (``compiled.receiver_update``).
