@@ -640,7 +640,21 @@ class SignalConfig:
     ``dtb_qmax`` and increment ``dtb_delta`` (in units of the global power), CA/G/OS designed for ``cfar_pfa`` with
     ``cfar_reference`` / ``cfar_guard`` samples and OS rank ``os_rank``; 1-D clustering with distance
     ``cluster_distance_s`` and weight threshold ``cluster_min_weight`` (seed 000: 65 Ts, 4); ``toa_estimator``
-    ``median`` (seed 000) or ``peak`` (quadratic fit on the cluster's peak, seed 003's peak refinement).
+    ``median`` (seed 000) or ``peak`` (quadratic fit on the cluster's peak, seed 003's peak refinement), or
+    ``energy-detector``: seed 002's energy-detector ToA in place of CFAR and clustering (``uwb_env.detection.
+    energy_detector``; ``background = "coherent"`` only): the raw difference through a band-pass zonal filter over
+    the pulse's -10 dB band, squared and integrated in bins of the waveform's ``energy_detector.integration_time_s``
+    over its ``observation_window_s`` from the end of the blind zone; the ToA is the centre of the first bin above
+    xi = max(z_min + ``ed_threshold_ratio`` (z_max - z_min), xi_0), xi_0 the noise bin energy that noise alone
+    exceeds somewhere in the window with probability ``ed_false_alarm_probability`` (1: never a missed window);
+    at most one ToA per pair and scan, its range variance seed 002's three-region sigma(SNR) at the SNR estimated
+    from the largest bin, plus ``range_std_floor_m``^2. The default ratio 0.95 is what seed 002's a-posteriori
+    search (``energy_detector.search_threshold_ratio``: least ToA RMSE over alpha in 0.2-0.99 on synthetic scans of
+    one pulse, 0-40 dB, 128 pulses) picks at every SNR (0.8-0.99, the RMSE flat within sampling error over
+    0.9-0.99); lower ratios pull low-SNR ToAs to the window's first bins. ``ed_pulse_integration``:
+    ``noncoherent`` (seed 002 eq. 1: the energies of the N_pulse pulses are summed, so the noise energy has N_pulse
+    times the degrees of freedom of the coherently integrated scan) or ``coherent`` (the ED on the synthesised
+    scan, the pulses averaged first).
 
     Network chain: ``nu``-tuples of receivers, measurement weight threshold ``min_tuple_weight`` and residual
     threshold ``max_residual_m`` (the LS residual of seed 000 eq. 25, normalised to metres: see
@@ -685,7 +699,10 @@ class SignalConfig:
     os_rank: int = 48
     cluster_distance_s: float = 65 / 16.4e9
     cluster_min_weight: int = 4
-    toa_estimator: Literal["median", "peak"] = "peak"
+    toa_estimator: Literal["median", "peak", "energy-detector"] = "peak"
+    ed_threshold_ratio: float = 0.95
+    ed_false_alarm_probability: float = 0.01
+    ed_pulse_integration: Literal["noncoherent", "coherent"] = "noncoherent"
     nu: int = 3
     min_tuple_weight: float = 30.0
     max_residual_m: float = 0.15
@@ -737,7 +754,12 @@ class SignalConfig:
         _choice("SignalConfig", "background", self.background, ("empty_room", "exponential", "coherent"))
         _choice("SignalConfig", "align_scans", self.align_scans, (True, False))
         _choice("SignalConfig", "cfar", self.cfar, ("dtb", "ca", "g", "os"))
-        _choice("SignalConfig", "toa_estimator", self.toa_estimator, ("median", "peak"))
+        _choice("SignalConfig", "toa_estimator", self.toa_estimator, ("median", "peak", "energy-detector"))
+        _in_range("SignalConfig", "ed_threshold_ratio", self.ed_threshold_ratio, 0.0, 1.0, closed="()")
+        _in_range("SignalConfig", "ed_false_alarm_probability", self.ed_false_alarm_probability, 0.0, 1.0, closed="(]")
+        _choice("SignalConfig", "ed_pulse_integration", self.ed_pulse_integration, ("noncoherent", "coherent"))
+        if self.toa_estimator == "energy-detector" and self.background != "coherent":
+            _fail("SignalConfig", "toa_estimator", self.toa_estimator, "'energy-detector' with background = 'coherent'")
         _choice("SignalConfig", "linkage", self.linkage, ("centroid", "single", "complete"))
         _choice("SignalConfig", "output", self.output, ("positions", "ranges"))
         _non_negative("SignalConfig", "false_ranges_per_scan", self.false_ranges_per_scan)
@@ -1006,6 +1028,10 @@ class PfConfig:
     mobility_std_m: float = 0.0
     mobility_containment: float = 0.9
     sdl_window: int = 5
+    sdl_window_s: float = 1.0
+    sdl_estimator: Literal["difference", "lsq"] = "lsq"
+    sdl_velocity_spread: bool = True
+    sdl_accel_std_mps2: float = 1.0
     likelihood: Literal["snr", "seed", "both"] = "snr"
     perception_std_m: float = 0.8
     wall_bias: bool = True
@@ -1023,6 +1049,10 @@ class PfConfig:
         _in_range("PfConfig", "mobility_std_m", self.mobility_std_m, 0.0, 1e3)
         _in_range("PfConfig", "mobility_containment", self.mobility_containment, 0.0, 1.0, closed="()")
         _int_at_least("PfConfig", "sdl_window", self.sdl_window, 1)
+        _in_range("PfConfig", "sdl_window_s", self.sdl_window_s, 0.0, 1e3)
+        _choice("PfConfig", "sdl_estimator", self.sdl_estimator, ("difference", "lsq"))
+        _bool("PfConfig", "sdl_velocity_spread", self.sdl_velocity_spread)
+        _in_range("PfConfig", "sdl_accel_std_mps2", self.sdl_accel_std_mps2, 0.0, 1e3)
         _choice("PfConfig", "likelihood", self.likelihood, ("snr", "seed", "both"))
         _positive("PfConfig", "perception_std_m", self.perception_std_m)
         _bool("PfConfig", "wall_bias", self.wall_bias)

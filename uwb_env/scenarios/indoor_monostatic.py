@@ -97,7 +97,8 @@ MONOSTATIC_SIGNAL = SignalConfig(
     align_scans=False,
     scan_jitter_s=0.0,
     output="ranges",
-    false_ranges_per_scan=0.84,
+    toa_estimator="energy-detector",
+    false_ranges_per_scan=0.1,
     range_std_floor_m=0.15,
 )
 """The signal path of a monostatic radar (``fidelity="signal"``): transmitter and receiver share one clock, so a

@@ -8,6 +8,9 @@ One scan, for the pairs the plan activates:
    Swerling RCS and random carrier phase; the scan's timing jitter; unit AWGN (after pulse integration);
 2. in-sensor chain (:mod:`uwb_env.detection`): envelope, direct-path ToA, alignment onto the reference (empty room or
    exponential-averaging background), rectified difference, blind zone, CFAR, 1-D clustering -> ToAs and weights;
+   or, with ``signal.toa_estimator = "energy-detector"``, seed 002's energy detector on the coherent difference
+   (:mod:`uwb_env.detection.energy_detector`): at most one ToA per pair, the first T_int energy bin above the
+   threshold;
 3. network chain (:mod:`uwb_env.localization`): nu-tuple ellipse intersection, weight / residual filtering, 2-D
    clustering -> one :class:`Detections` record of 2-D positions (``measurement_names = ("x", "y")``, ``rx = -1``).
 
@@ -42,6 +45,15 @@ from uwb_env.detection import (
     rectified_difference,
     square_law_envelope,
 )
+from uwb_env.detection.energy_detector import (
+    accumulated_noise_energy,
+    bin_energies,
+    energy_detector_toa,
+    noise_energy_threshold,
+    valid_extremes,
+    zonal_bandpass,
+    zonal_noise_variance,
+)
 from uwb_env.localization import locate
 from uwb_env.rng import RngStreams
 from uwb_env.scene.truth import Truth
@@ -60,6 +72,7 @@ from uwb_env.sensing.signal.synthesis import (
 from uwb_env.typing import BoolArray, FloatArray, IntArray
 from uwb_env.units import db_to_linear
 from uwb_env.waveforms.impulse import ImpulseWaveform
+from uwb_env.waveforms.toa_models import energy_detector_toa_std
 
 ORIGIN_TOLERANCE_M = 0.3  # a ToA within this bistatic range of a target's echo is attributed to it (evaluation only)
 _POSITION_NAMES = ("x", "y")
@@ -77,6 +90,7 @@ class SignalEpisode:
     reference_scan: FloatArray  # (W, P, N) the empty room's averaged raw scans (the coherent background)
     reference_toa: FloatArray  # (W, P) direct-path ToA of the references [samples]
     reference_peak: FloatArray  # (W, P) direct-path peak of the references [samples] (time origin of the ranges)
+    ed_uniform: FloatArray | None = None  # (P, bins) the scan's draws of the ED's pulse-accumulation noise, or None
 
 
 @dataclass(frozen=True, slots=True)
@@ -173,8 +187,56 @@ class SignalSensor(ParametricModelHooks):
         elif sig.cfar == "os":
             self.alpha = os_threshold_factor(sig.cfar_pfa, 2 * sig.cfar_reference, sig.os_rank)
         self.range_std_m = sig.range_std_floor_m
+        self.origin_tolerance_m = ORIGIN_TOLERANCE_M
+        if sig.toa_estimator == "energy-detector":
+            self._init_energy_detector()
         area = lay.area
         self._area_m2 = float((area[1] - area[0]) * (area[3] - area[2]))
+
+    def _init_energy_detector(self) -> None:
+        """Constants of seed 002's energy detector: BPZF band, bins, noise statistics, absolute threshold xi_0.
+
+        The BPZF keeps the pulse's -10 dB band fc +- B/2 (97 % of a Gaussian-spectrum pulse's energy). The noise of
+        the coherent difference has per-sample variance 1 + 1 / ``empty_room_scans`` (the scan's and the averaged
+        reference's) times the BPZF's kept fraction f, its bin energy Gamma of shape W T_int + 1/2 (2 W T_int + 1
+        degrees of freedom, W = f fs / 2); non-coherent accumulation of N pulses adds Gamma of (N - 1) times that
+        shape and mean (N - 1) M f
+        (``energy_detector`` module). The sum's mean and variance give the Gamma of xi_0 (moment matching), per
+        waveform (``ed_noise_mean``, ``ed_floor``: ``[accumulated?, waveform]``). The echo's integrated SNR is
+        estimated from the largest bin: (z_max - noise mean) / (2 eta), eta the pulse energy the BPZF keeps (a path
+        of integrated SNR carries sum p^2 = 2 SNR, ``synthesis``).
+        """
+        sig, cfg = self.sig, self.cfg
+        eds = {w.config.energy_detector for w in self.library.waveforms}
+        if len(eds) > 1:
+            raise ValueError(
+                f"waveforms of {cfg.name!r}: toa_estimator = 'energy-detector' needs one energy_detector "
+                "configuration (integration time, observation window) for the whole library"
+            )
+        ed = self.energy_detector = eds.pop()
+        w0 = self.library.waveforms[0].config
+        self.ed_band = (w0.center_freq_hz - 0.5 * w0.bandwidth_hz, w0.center_freq_hz + 0.5 * w0.bandwidth_hz)
+        self.ed_bin = ed.integration_time_s * self.fs  # samples per bin
+        self.ed_n_bins = max(1, math.floor(ed.observation_window_s / ed.integration_time_s + 1e-9))
+        kept = zonal_noise_variance(sig.n_samples, self.fs, *self.ed_band)
+        self.ed_pulse_mean = self.ed_bin * kept  # one unit-variance scan's bin noise energy
+        self.ed_shape = kept * 0.5 * self.fs * ed.integration_time_s + 0.5  # W T_int + 1/2
+        self.ed_extra_pulses = np.array([w.config.n_pulses - 1 for w in self.library.waveforms], dtype=float)
+        ref = 1.0 + 1.0 / sig.empty_room_scans
+        extra = np.stack([np.zeros_like(self.ed_extra_pulses), self.ed_extra_pulses])  # (2, W)
+        self.ed_noise_mean = self.ed_pulse_mean * (ref + extra)
+        var = self.ed_pulse_mean**2 / self.ed_shape * (ref**2 + extra)
+        shape = self.ed_noise_mean**2 / var
+        self.ed_floor = np.array(
+            [
+                noise_energy_threshold(sig.ed_false_alarm_probability, self.ed_n_bins, m, a)
+                for m, a in zip(self.ed_noise_mean.ravel(), shape.ravel(), strict=True)
+            ]
+        ).reshape(self.ed_noise_mean.shape)
+        fc, s = self._pulse
+        probe = unit_pulses(self.t, np.array(self.t[-1] / 2.0), np.zeros(()), fc, s, self.fs)
+        self.ed_pulse_energy = float(np.sum(zonal_bandpass(probe, self.fs, *self.ed_band) ** 2))
+        self.origin_tolerance_m = max(ORIGIN_TOLERANCE_M, SPEED_OF_LIGHT_MPS * ed.integration_time_s)
 
     # ------------------------------------------------------------------------------------------------ episode
     def new_episode(self, truth: Truth, rngs: RngStreams) -> SignalEpisode:
@@ -225,6 +287,8 @@ class SignalSensor(ParametricModelHooks):
         phase = rng.signal.uniform(0.0, 2.0 * math.pi, (P, K))
         fluct = rcs_fluctuation(self.model.swerling, (self.n_tx, self.n_rx), rng.rcs, self.model._swerling_w)
         noise = rng.signal.standard_normal((P, sig.n_samples))
+        if sig.toa_estimator == "energy-detector" and sig.ed_pulse_integration == "noncoherent":
+            episode.ed_uniform = rng.signal.uniform(0.0, 1.0, (P, self.ed_n_bins))
         active = np.flatnonzero(plan.active_rx[self.pairs[:, 1]])
         w = plan.waveform[self.pairs[active, 0]]
         t_i, r_i = self.pairs[active, 0], self.pairs[active, 1]
@@ -284,13 +348,17 @@ class SignalSensor(ParametricModelHooks):
             episode.reference_peak[w, active],
             active,
             episode.reference_scan[w, active],
+            waveform=w,
+            ed_uniform=None if episode.ed_uniform is None else episode.ed_uniform[active],
         )
         if self.sig.background == "exponential":
             episode.reference[w, active] = exponential_background(ref, aligned, self.sig.background_alpha)
         truth_range = episode.geom.bistatic_range[k, self.pairs[active, 0], self.pairs[active, 1]][row]  # (D, K)
         err = np.where(episode.truth.alive[k][None], np.abs(truth_range - ranges[:, None]), np.inf)
         origin = np.where(
-            err.min(axis=1, initial=np.inf) < ORIGIN_TOLERANCE_M, np.argmin(err, axis=1) if err.shape[1] else -1, -1
+            err.min(axis=1, initial=np.inf) < self.origin_tolerance_m,
+            np.argmin(err, axis=1) if err.shape[1] else -1,
+            -1,
         )
         return ScanTrace(scans, aligned, ref, d, decisions, active, row, toa_s, weight, peak, ranges, origin)
 
@@ -302,14 +370,20 @@ class SignalSensor(ParametricModelHooks):
         ref_peak: FloatArray,
         pair: IntArray,
         ref_scan: FloatArray | None = None,
+        waveform: IntArray | None = None,
+        ed_uniform: FloatArray | None = None,
     ) -> tuple[FloatArray, FloatArray, BoolArray, tuple, FloatArray]:
         """Seed 000's in-sensor chain on scans ``(B, N)`` of pairs ``pair`` (B,) against references ``(B, N)``.
 
-        ``ref_scan`` ``(B, N)``: the raw empty-room scans, needed by ``background = "coherent"``. Returns the aligned
+        ``ref_scan`` ``(B, N)``: the raw empty-room scans, needed by ``background = "coherent"``. With
+        ``toa_estimator = "energy-detector"`` the chain is :meth:`_energy_detector` (``waveform`` (B,) the rows'
+        waveforms, 0 if None; ``ed_uniform`` (B, bins) the draws of its pulse-accumulation noise). Returns the aligned
         envelopes, the difference (rectified envelope difference, or the envelope of the raw difference; blind zone
         zeroed), the CFAR decisions, the clusters ``(row, toa [samples], weight, peak)`` and their bistatic ranges [m].
         """
         sig = self.sig
+        if sig.toa_estimator == "energy-detector":
+            return self._energy_detector(scans, ref_peak, pair, ref_scan, waveform, ed_uniform)
         env = square_law_envelope(scans, self.lpf)
         if sig.align_scans:
             toa = direct_path_toa(env, sig.dp_threshold_ratio, self.jump_back)
@@ -338,6 +412,68 @@ class SignalSensor(ParametricModelHooks):
         row, toa_s = clusters[0], clusters[1]
         ranges = self.baseline[pair][row] + SPEED_OF_LIGHT_MPS * (toa_s - ref_peak[row]) / self.fs
         return aligned, d, decisions, clusters, ranges
+
+    def _energy_detector(
+        self,
+        scans: FloatArray,
+        ref_peak: FloatArray,
+        pair: IntArray,
+        ref_scan: FloatArray | None,
+        waveform: IntArray | None,
+        ed_uniform: FloatArray | None,
+    ) -> tuple[FloatArray, FloatArray, BoolArray, tuple, FloatArray]:
+        """Seed 002's energy-detector ToA (``toa_estimator = "energy-detector"``), in :meth:`in_sensor`'s format.
+
+        The raw coherent difference (scan minus the empty room) through the BPZF, squared, integrated in T_int bins
+        over the observation window from the end of the blind zone (direct-path peak + blind zone), the samples
+        where the filtered scan's envelope did not grow over the empty room's dropped (seed 000's rectification
+        against shadowing ghosts); the ToA is the
+        centre of the first bin above max(z_min + alpha (z_max - z_min), xi_0); a window with no bin above xi_0 gives
+        none. ``ed_pulse_integration = "noncoherent"`` adds the noise energy of the other N_pulse - 1 pulses from the
+        draws ``ed_uniform`` (without them -- a direct call -- the bins are the coherent scan's). Returns the
+        envelopes (no alignment: a common clock), the squared filtered difference (blind zone zeroed), the samples
+        of the crossing bins as decisions, the ToAs as clusters ``(row, toa [samples], weight = the bin's samples,
+        peak = the estimated integrated SNR)`` and their bistatic ranges [m].
+        """
+        sig = self.sig
+        if ref_scan is None:
+            raise ValueError("toa_estimator = 'energy-detector' needs the raw reference scans (ref_scan)")
+        y_scan, y_ref = (zonal_bandpass(x, self.fs, *self.ed_band) for x in (scans, ref_scan))
+        # seed 000's rectification, per sample: where the envelope fell below the empty room's (a target shadowing a
+        # path: the difference there is the blocked path, a ghost) the difference is dropped
+        grew = square_law_envelope(y_scan, self.lpf) > square_law_envelope(y_ref, self.lpf)
+        y = np.where(grew, y_scan - y_ref, 0.0)
+        start = ref_peak + self.blind
+        z = bin_energies(y, start, self.ed_bin, self.ed_n_bins)
+        w = np.zeros(scans.shape[0], dtype=np.int64) if waveform is None else np.asarray(waveform)
+        acc = int(sig.ed_pulse_integration == "noncoherent" and ed_uniform is not None)
+        if acc:
+            z = z + accumulated_noise_energy(ed_uniform, self.ed_extra_pulses[w], self.ed_pulse_mean, self.ed_shape)
+        floor = self.ed_floor[acc, w]
+        toa, hit, k = energy_detector_toa(z, start, self.ed_bin, sig.ed_threshold_ratio, floor)
+        row = np.flatnonzero(hit)
+        snr = np.maximum(valid_extremes(z)[1] - self.ed_noise_mean[acc, w], 0.0) / (2.0 * self.ed_pulse_energy)
+        idx = np.arange(scans.shape[-1])[None]
+        d = np.square(y)
+        d[idx < start[:, None]] = 0.0
+        lo = (start + k * self.ed_bin)[:, None]
+        decisions = hit[:, None] & (idx >= lo) & (idx < lo + self.ed_bin)
+        weight = np.full(row.size, max(1, round(self.ed_bin)), dtype=np.int64)
+        toa_s, peak = toa[row], snr[row]
+        ranges = self.baseline[pair][row] + SPEED_OF_LIGHT_MPS * (toa_s - ref_peak[row]) / self.fs
+        env = square_law_envelope(scans, self.lpf)
+        return env, d, decisions, (row, toa_s, weight, peak), ranges
+
+    def ed_range_variance(self, snr: FloatArray, waveform: int) -> FloatArray:
+        """``(D,)`` range variance [m^2] of energy-detector ToAs at estimated integrated SNR ``snr`` (D,).
+
+        Seed 002's three-region sigma(SNR) (``waveforms.toa_models``) at the per-pulse SNR snr / N_pulse of the
+        waveform, times c, plus ``range_std_floor_m``^2 (what the tracker does not model: the walls' excess delay).
+        """
+        n_pulses = self.library.waveforms[waveform].config.n_pulses
+        per_pulse_db = 10.0 * np.log10(np.maximum(np.asarray(snr, dtype=float), 1e-30) / n_pulses)
+        sigma_t = energy_detector_toa_std(per_pulse_db, n_pulses, self.energy_detector)
+        return (SPEED_OF_LIGHT_MPS * sigma_t) ** 2 + self.range_std_m**2
 
     def controlled_scans(
         self, rng: np.random.Generator, pair: int, waveform: int, excess_range_m: float, snr: FloatArray
@@ -386,8 +522,9 @@ class SignalSensor(ParametricModelHooks):
     def ranges(self, tr: ScanTrace, plan: ScanPlan, time_s: float) -> tuple[Detections, ...]:
         """The in-sensor ToAs as per-pair bistatic-range detections (no network fusion; the tracker fuses them).
 
-        Variance ``range_std_floor_m``^2; clutter intensity ``false_ranges_per_scan`` spread uniformly over the
-        pair's range window beyond the blind zone (the false-alarm rate measured by the calibration report).
+        Variance ``range_std_floor_m``^2 (the energy detector: :meth:`ed_range_variance`); clutter intensity
+        ``false_ranges_per_scan`` spread uniformly over the pair's range window beyond the blind zone (the
+        false-alarm rate measured by the calibration report).
         """
         sig, out = self.sig, []
         window_m = (
@@ -399,6 +536,10 @@ class SignalSensor(ParametricModelHooks):
             sel = sel[np.argsort(tr.ranges[sel], kind="stable")]
             n = sel.size
             t, r = (int(v) for v in self.pairs[p])
+            if sig.toa_estimator == "energy-detector":
+                var = self.ed_range_variance(tr.peak[sel], int(plan.waveform[t]))
+            else:
+                var = np.full(n, self.range_std_m**2)
             out.append(
                 Detections(
                     tx=t,
@@ -406,7 +547,7 @@ class SignalSensor(ParametricModelHooks):
                     waveform=int(plan.waveform[t]),
                     time_s=time_s,
                     z=tr.ranges[sel][:, None],
-                    R=np.full((n, 1, 1), self.range_std_m**2),
+                    R=var[:, None, None],
                     snr=tr.peak[sel],
                     origin=tr.origin[sel],
                     measurement_names=("bistatic_range",),
