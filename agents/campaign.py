@@ -257,10 +257,14 @@ def preflight(campaign: Campaign) -> dict[str, Layout]:
     return layouts
 
 
-def run_one(campaign: Campaign, scheme: str, seed: int, path: pathlib.Path) -> pathlib.Path:
-    """Play one (scheme, seed) and write its record atomically to ``path`` (see :mod:`uwb_env.agents.storage`)."""
+def play_scheme(campaign: Campaign, scheme: str, seed: int) -> tuple[np.ndarray, tuple[str, ...]]:
+    """Play one (scheme, seed) of the campaign: its per-scan record and column names (:func:`play`)."""
     scheduler, tracker = parse_scheme(scheme)
-    record, names = play(campaign_env(campaign, tracker), make_scheduler(scheduler), seed)
+    return play(campaign_env(campaign, tracker), make_scheduler(scheduler), seed)
+
+
+def write_record(path: pathlib.Path, record: np.ndarray, names: Sequence[str]) -> pathlib.Path:
+    """Write one run's record atomically to ``path`` (see :mod:`uwb_env.agents.storage`); every backend's format."""
 
     def write(f: IO[bytes]) -> None:
         f.write((",".join(names) + "\n").encode())
@@ -268,6 +272,11 @@ def run_one(campaign: Campaign, scheme: str, seed: int, path: pathlib.Path) -> p
 
     atomic_write(path, write)
     return path
+
+
+def run_one(campaign: Campaign, scheme: str, seed: int, path: pathlib.Path) -> pathlib.Path:
+    """Play one (scheme, seed) and write its record atomically to ``path``."""
+    return write_record(path, *play_scheme(campaign, scheme, seed))
 
 
 def run_path(out: pathlib.Path, scheme: str, seed: int) -> pathlib.Path:
@@ -384,8 +393,20 @@ def check_workers(workers: object) -> int:
     return workers
 
 
-def run_campaign(campaign: Campaign, out: pathlib.Path, workers: int = 1, progress: bool = True) -> None:
-    """Play every (scheme, seed) whose record is missing or damaged, over ``workers`` processes.
+BACKENDS = ("local", "ray")
+"""Where the runs play: ``local`` (a process pool on this machine, the default) or ``ray`` (one Ray task per run,
+:mod:`uwb_env.agents.ray_backend`; needs ``pip install -e ".[ray]"``)."""
+
+
+def run_campaign(
+    campaign: Campaign,
+    out: pathlib.Path,
+    workers: int = 1,
+    progress: bool = True,
+    backend: str = "local",
+    address: str | None = None,
+) -> None:
+    """Play every (scheme, seed) whose record is missing or damaged, over ``workers`` processes (or on Ray).
 
     Order: every argument is checked and every env built (:func:`preflight`) before the folder is touched; then the
     folder is locked (:class:`~uwb_env.agents.storage.FolderLock`), ``campaign.json`` checked and written, the
@@ -394,18 +415,33 @@ def run_campaign(campaign: Campaign, out: pathlib.Path, workers: int = 1, progre
     runs stay on disk and a re-run resumes from them.
     """
     check_workers(workers)
+    check_backend(backend, address)
     layouts = preflight(campaign)
     with FolderLock(out, "campaign"):
         remove_stale_temporaries([out, *(out / "runs").glob("*/")])  # the folders a campaign writes in
         write_definition(campaign, out)
         jobs = missing_runs(campaign, out, layouts)
         with tqdm(total=len(jobs), desc="runs", unit="run", disable=not progress) as bar:
-            if workers == 1 or len(jobs) <= 1:
+            if backend == "ray":
+                from uwb_env.agents.ray_backend import run_on_ray
+
+                run_on_ray(campaign, out, jobs, bar, workers, address)
+            elif workers == 1 or len(jobs) <= 1:
                 for s, seed in jobs:
                     run_one(campaign, s, seed, run_path(out, s, seed))
                     bar.update()
             else:
                 _run_parallel(campaign, out, jobs, workers, bar)
+
+
+def check_backend(backend: object, address: object) -> None:
+    """Validate ``backend`` (one of :data:`BACKENDS`) and ``address`` (a string, only with ``ray``)."""
+    if backend not in BACKENDS:
+        raise ValueError(f"backend={backend!r}: must be one of {BACKENDS}")
+    if address is not None and (backend != "ray" or not isinstance(address, str) or not address):
+        raise ValueError(
+            f"address={address!r}: a Ray cluster address (e.g. 'ray://host:10001' or 'auto'), with backend 'ray' only"
+        )
 
 
 def _run_parallel(campaign: Campaign, out: pathlib.Path, jobs: list[tuple[str, int]], workers: int, bar) -> None:

@@ -26,7 +26,7 @@ from typing import Any, NoReturn
 
 import yaml
 
-from uwb_env.agents.campaign import Campaign
+from uwb_env.agents.campaign import BACKENDS, Campaign
 from uwb_env.agents.presets import PRESETS
 from uwb_env.agents.schedulers import scheduler_names
 from uwb_env.agents.storage import FolderLocked
@@ -137,6 +137,10 @@ def evaluate_parser() -> argparse.ArgumentParser:
     add_pairs(ap, "--set", "overrides", "scenario override (dotted path); repeatable, several per flag")
     add_pairs(ap, "--env-kwarg", "env_kwargs", "env argument, e.g. include_lookahead=true; repeatable")
     ap.add_argument("--workers", type=count(1), default=os.cpu_count() or 1, help="worker processes, >= 1")
+    ap.add_argument(
+        "--backend", choices=BACKENDS, default="local", help="local process pool, or one Ray task per run (.[ray])"
+    )
+    ap.add_argument("--address", help="with --backend ray: a Ray cluster to join (auto, ray://host:10001); none: local")
     ap.add_argument("--out", type=folder, default=pathlib.Path("results/campaign"), help="the campaign's folder")
     ap.add_argument("--no-progress", action="store_true")
     return ap
@@ -165,7 +169,14 @@ def evaluate_main(argv: Sequence[str] | None = None) -> None:
     args = ap.parse_args(argv)
     previous = signal.signal(signal.SIGTERM, _interrupt)  # SIGTERM stops a campaign as Ctrl-C does
     try:
-        text = evaluate(campaign_from_args(args), args.out, args.workers, progress=not args.no_progress)
+        text = evaluate(
+            campaign_from_args(args),
+            args.out,
+            args.workers,
+            progress=not args.no_progress,
+            backend=args.backend,
+            address=args.address,
+        )
     except CampaignInterrupted as e:
         if e.summary:
             print(e.summary)

@@ -16,6 +16,7 @@ from scipy import stats
 from uwb_env.agents.campaign import (
     METRICS,
     Campaign,
+    check_backend,
     check_workers,
     finished_seeds,
     load_runs,
@@ -33,17 +34,25 @@ class CampaignInterrupted(Exception):
         self.summary = summary
 
 
-def evaluate(campaign: Campaign, out: pathlib.Path, workers: int = 1, progress: bool = True) -> str:
+def evaluate(
+    campaign: Campaign,
+    out: pathlib.Path,
+    workers: int = 1,
+    progress: bool = True,
+    backend: str = "local",
+    address: str | None = None,
+) -> str:
     """Run (or resume) the campaign and summarise it, holding the folder's lock throughout; the summary.
 
     On ``KeyboardInterrupt`` the workers are stopped at once (:func:`~uwb_env.agents.campaign.run_campaign`), the
     paired runs that every scheme finished are summarised, and :class:`CampaignInterrupted` carries that summary.
     """
     check_workers(workers)
+    check_backend(backend, address)
     preflight(campaign)  # every argument checked before the folder is created or locked
     with FolderLock(out, "campaign"):
         try:
-            run_campaign(campaign, out, workers, progress)
+            run_campaign(campaign, out, workers, progress, backend, address)
         except KeyboardInterrupt:
             seeds = finished_seeds(campaign, out, preflight(campaign))
             text = summarise(campaign, out, seeds) if seeds else None

@@ -248,11 +248,15 @@ class PhdTracker(GaussianLookahead):
         return float(self.weights.sum())
 
     def _model(self, dt: float) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """``(F (6, 6), Q (6, 6), G (6, 2))`` of the NCV model for period ``dt`` (cached)."""
+        """``(F (6, 6), Q (6, 6), G (6, 2))`` of the NCV model for period ``dt`` (cached).
+
+        Computed from the period rounded to 1e-12 s, so the matrices do not depend on which unrounded period came
+        first (``Tracker._model_matrices``).
+        """
         key = round(dt, 12)
         m = self._matrices.get(key)
         if m is None:
-            F, G = model_transition("ncv", dt)
+            F, G = model_transition("ncv", key)
             Q = process_noise(G, self.phd.accel_noise_std_mps2)
             Q[4, 4] = Q[5, 5] = ZERO_ACCELERATION_STD**2
             m = self._matrices[key] = (F, Q, G)

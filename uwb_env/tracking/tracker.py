@@ -155,12 +155,17 @@ class Tracker(GaussianLookahead):
         return self._indices[key]
 
     def _model_matrices(self, dt: float) -> tuple[FloatArray, FloatArray]:
-        """``(r, 6, 6)`` transition and process noise for period ``dt`` (cached per dt)."""
+        """``(r, 6, 6)`` transition and process noise for period ``dt`` (cached per dt rounded to 1e-12 s).
+
+        Computed from the rounded period, so the matrices are a function of the key alone: scan times k T differ from
+        their neighbours by T plus a few ulps, and a cache filled with whichever unrounded period came first made an
+        episode's last bits depend on the episodes the same tracker had played before.
+        """
         key = round(dt, 12)
         if key not in self._matrices:
             Fs, Qs = [], []
             for m in self.cfg.models:  # the model set: a small fixed set
-                F, G = model_transition(m.kind, dt, m.turn_rate_rps)
+                F, G = model_transition(m.kind, key, m.turn_rate_rps)
                 Q = process_noise(G, m.accel_noise_std_mps2)
                 if m.kind != "nca":
                     # Seed 003's NCV / CT zero the acceleration rows, which leaves P singular; they carry the
