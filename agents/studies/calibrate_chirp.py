@@ -677,9 +677,12 @@ def report(out: Path, res: dict, command: str, elapsed: float) -> None:
              else ", further from it than two standard errors of the Monte Carlo allow."),
           ""]  # fmt: skip
     L += ["## E. Spread at high SNR vs the pulse-train CRLB (Swerling 0)", ""]
-    L += ["Echoes at random range-rates (up to 2.5 range-rate periods). \"bound\": the train's CRLB at the commanded "
-          "SNR, which ignores the range walk; \"parametric\": the parametric model's variance of the same echoes "
-          "(the bound at the walked SNR times `ParametricSensor.walk_factors`), RMS over the echoes.", ""]
+    L += [
+        'Echoes at random range-rates (up to 2.5 range-rate periods). "bound": the train\'s CRLB at the commanded '
+        'SNR, which ignores the range walk; "parametric": the parametric model\'s variance of the same echoes '
+        "(the bound at the walked SNR times `ParametricSensor.walk_factors`), RMS over the echoes.",
+        "",
+    ]
     L += [
         "| waveform | SNR [dB] | detections | range std / bound | range-rate std / bound | range std / parametric | "
         "range-rate std / parametric | range bias [m] | reported sqrt(R_rr) / range std | "
