@@ -30,6 +30,11 @@ posteriors are unchanged and every log-likelihood here is that of O up to the da
 * The delay estimate (eq. 12): the first bin with P(X_k = 1 | O, lambda) > 1/2 (-1 when there is none, a false
   negative).
 
+Bin convention. Section 2.3 writes k_* = floor(tau_* / T) with bins centred on k T (eq. 3), eq. 16 the ceil of the
+excess path over c T; they differ by half a bin. The replica uses eq. 16's: bin k holds the excess delays
+((k - 1) T, k T] over the direct path, k_* = ceil(tau_* / T) >= 1, for the estimators and the truth alike. The
+kernels here only see array indices; the caller maps them to bins.
+
 Baselines (section 2.6 and 4.1):
 
 * first threshold crossing, eq. 13: the first k with O_k > gamma; the replica picks gamma with hindsight (the
