@@ -999,7 +999,15 @@ class PfConfig:
 
     - ``n_particles`` N_p (the seed does not print it; 1000 is ours);
     - ``mobility``: ``skdu`` (speed known, direction unknown, eq. 16) or ``sdl`` (speed and direction learnt from
-      the last ``sdl_window`` = N_v = 5 estimates, eqs. 17-18);
+      past estimates, eqs. 17-18);
+    - SDL's learnt velocity v_el (the seed leaves these open; ``uwb_env.tracking.pf`` measures each choice):
+      ``sdl_window_s`` = 1 s, the window in time, N_v = round(``sdl_window_s`` / T) steps (the seed's N_v = 5 at
+      its T = 0.2 s; 0: the fixed ``sdl_window`` = N_v = 5 steps at any T); ``sdl_estimator``: ``lsq`` (default,
+      the least-squares slope of the window's estimates against time) or ``difference`` (eq. 17 read literally,
+      (p^_{k-1} - p^_{k-1-N_v}) / (N_v T)); ``sdl_velocity_spread``: each particle draws its velocity from
+      N(v_el, C_v), C_v = Cov(v_el) from the estimates' covariances + (``sdl_accel_std_mps2`` tau)^2 I, the
+      manoeuvre (1 m/s^2: a 1 m/s walker turning at ~1 rad/s) over the lag tau from the window's mean time to the
+      move (False: every particle moves by v_el, the seed's). ``difference``, 0 and False: the seed as printed;
     - ``speed_mps``: the known speed v of SKDU (the seed's person walks at 1 m/s);
     - ``mobility_std_m``: sigma_m of the Gaussian mobility model (eq. 15); 0 (default) applies the seed's rule
       "with probability ``mobility_containment`` = 0.9 the new position is within a circle of radius v T":

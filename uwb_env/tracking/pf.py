@@ -8,11 +8,44 @@ Mobility (eq. 15: p_k ~ N(mu_m, sigma_m^2 I), per particle):
 
 - SKDU, speed known direction unknown (eq. 16): mu_m = p_{k-1} + v T (cos theta, sin theta), theta ~ U[-pi, pi].
   The displacement d = p_k - p_{k-1} has E[d] = 0 and Cov[d] = (v^2 T^2 / 2 + sigma_m^2) I.
-- SDL, speed and direction learnt (eqs. 17-18): mu_m = p_{k-1} + v_el T with v_el the mean velocity of the last
-  N_v estimates. The seed's eq. 17 is garbled in print (a sum over a window of differences of past estimates,
-  a stray "2"); we read it as the window average v_el = (p^_{k-1} - p^_{k-1-N_v}) / (N_v T) (the mean of the N_v
-  successive differences over T). E[d] = v_el T, Cov[d] = sigma_m^2 I. Until N_v + 1 estimates exist the SDL
-  filter moves its particles as SKDU does (the seed does not say how its window starts; our choice).
+- SDL, speed and direction learnt (eqs. 17-18): mu_m = p_{k-1} + v_el T with v_el learnt from the last N_v + 1
+  position estimates. The seed's eq. 17 is garbled in print (a sum over a window of differences of past estimates,
+  a stray "2"); read literally it is the window average v_el = (p^_{k-1} - p^_{k-1-N_v}) / (N_v T) (the mean of the
+  N_v successive differences over T), every particle moving by the same v_el T + N(0, sigma_m^2 I). The seed leaves
+  the estimator, the window and the learnt velocity's uncertainty open; our choices (``PfConfig``), each below
+  with what it fixes on Fig. 4's case (``sdl_estimator = "difference"``, ``sdl_window_s = 0``,
+  ``sdl_velocity_spread = False`` restore the literal reading, N_v = ``sdl_window`` = 5):
+
+  * ``sdl_estimator = "lsq"``: v_el = sum_i a_i p^_i, the least-squares slope of the window's estimates against
+    their times, a_i = (t_i - t_bar) / S_tt, S_tt = sum (t_i - t_bar)^2 (``sdl_coefficients``): the unbiased linear
+    estimator of least variance for independent estimates of equal covariance, s^2 / S_tt = 12 s^2 / (T^2 n (n^2 -
+    1)) per axis with n = N_v + 1, against the difference's 2 s^2 / (N_v T)^2 (29 % less at N_v = 5; equal at
+    N_v = 2). It refers to the window's mean time t_bar.
+  * ``sdl_window_s`` = 1 s, the window in time: N_v = round(1 s / T) = 2 / 5 / 10 at T = 0.5 / 0.2 / 0.1 s (the
+    seed's N_v = 5 at its T = 0.2 s). A fixed N_v = 5 spans 2.5 s at T = 0.5 s (the walk turns within it: lag)
+    and 0.5 s at T = 0.1 s (the estimates' noise, ~0.5 m, over 0.5 s: ~1 m/s).
+  * ``sdl_velocity_spread``: each particle draws its own velocity v ~ N(v_el, C_v) (``sdl_displacements``), with
+    C_v = sum_i a_i^2 P_i (P_i: the cloud's position covariance at estimate i, the estimates taken as independent)
+    + (sigma_a tau)^2 I, the manoeuvre over the lag tau = t_{k-1} + T / 2 - t_bar from the window's mean time to
+    the middle of the move, sigma_a = ``sdl_accel_std_mps2`` = 1 m/s^2 (a walker at 1 m/s turning at ~1 rad/s;
+    the scenario's walks turn at 1.1 rad/s on average). E[d] = v_el T, Cov[d] = C_v T^2 + sigma_m^2 I.
+
+  Why (OLOS Fig. 4 case, 20 walks, T = 0.5 / 0.2 / 0.1 s): the literal SDL's learnt velocity is off by as much as
+  the speed itself (median |v_el - v| 0.96 / 0.91 / 0.93 m/s), and every particle follows it with sigma_m of 0.23 /
+  0.09 / 0.05 m per scan: the cloud cannot leave the wrong velocity (position NEES median 7.6 / 21 / 32, 2
+  expected), its estimate feeds the next v_el (estimate -> velocity -> move -> estimate) and the track drifts (80 %
+  error 3.2 / 3.2 / 4.0 m, SKDU 1.35 / 1.15 / 1.73 m). With the three choices: |v_el - v| 0.71 / 0.66 / 0.70 m/s,
+  its NEES mean 0.7 / 1.5 / 2.5 (2 expected: C_v covers the velocity's error), position NEES median 1.0 / 2.1 / 5.1,
+  80 % error 1.17 / 0.91 / 1.10 m. The spread is what matters: without it (least squares, 1 s window) 1.97 / 3.91 /
+  3.70 m; without the manoeuvre term C_v is too small (velocity NEES median 1.4 / 9.1 / 40) and 1.26 / 1.88 / 2.71
+  m; with the spread but the seed's N_v = 5 steps 1.08 / 0.91 / 1.49 m. Even from exact positions a 1 s window's
+  velocity lags the turning walk by 0.41 / 0.33 / 0.32 m/s (median); the estimates' noise brings it to ~0.7 m/s: the
+  learnt direction is a weak prior, and C_v says so. Sensitivity (20 walks, 80 % error at T = 0.5 / 0.2 / 0.1 s):
+  window 0.5 s 1.36 / 0.90 / 1.49 m, 2 s 1.05 / 0.82 / 1.05 m; sigma_a 0.5 m/s^2 1.14 / 1.34 / 1.87 m, 2 m/s^2 1.29
+  / 0.78 / 0.95 m; estimator "difference" 1.17 / 0.93 / 1.17 m.
+
+  Until the window holds N_v + 1 estimates the SDL filter moves its particles as SKDU does (the seed does not say
+  how its window starts; our choice).
 - sigma_m: the seed's rule "with probability 0.9 the new position is within a circle centred on mu_m of radius
   v T": for a 2-D isotropic Gaussian P(|d - mu| < r) = 1 - exp(-r^2 / (2 sigma^2)), so
   sigma_m = v T / sqrt(-2 ln 0.1) = 0.093 m at T = 0.2 s (the seed prints "sigma_m = 1m", which contradicts its own
@@ -65,8 +98,8 @@ mobility model's displacement is independent of the particle; exact away from wa
 is not in the moments), computed analytically, so it neither changes the filter nor draws from its generator.
 ``predict_gaussians`` applies the same moment map to a Gaussian: position p + d, velocity d / dt, with
 d ~ (E[d], Cov[d]) of the model (SDL with a full window: E[d] = the Gaussian's mean velocity x dt, the learnt
-velocity held over the step). The lookahead's expected update is that of these Gaussians under the UKF
-(``filter = "ukf"``, ``tracking.expectation``).
+velocity held over the step, Cov[d] = C_v dt^2 + sigma_m^2 I). The lookahead's expected update is that of
+these Gaussians under the UKF (``filter = "ukf"``, ``tracking.expectation``).
 
 Against the seed (``python benchmarks/pf_throughput.py --neo``: 80 % point of the NEO over 5 random 20 m walks on
 ``indoor-monostatic``, T = 0.2 s, SKDU; LOS = the same floor with walls transparent to the radio). With the seed's
@@ -76,13 +109,20 @@ N_pulse 32 / 128 / 512 against the seed's 0.8 / 1.0 / 1.2 m; Fig. 3's T_int tren
 the seed's 2.0-2.9 m; 1.10 m at N_pulse 32): most detections then come from the low-SNR region of eq. 9, metres
 wide. The default likelihood ("snr", each detection's own sigma(SNR)) does better than the seed everywhere: LOS
 0.37 / 0.53 / 0.70 m, OLOS 0.84 / 0.92 / 1.11 m (N_pulse) and 0.72 / 0.92 / 0.97 m (T_int 2 / 4 / 6 ns).
-Fig. 4 (OLOS): SKDU 0.94 / 0.92 / 1.45 m at T = 0.5 / 0.2 / 0.1 s (seed: below 2.7 m at 0.5 and 0.2 s); SDL
-2.81 / 3.57 / 5.47 m -- worse than SKDU at every T, where the seed finds them equal at 0.2 s and SDL best at
-0.1 s: the window velocity of N_v = 5 noisy estimates spans only N_v T (0.5 s at T = 0.1 s), and with
-sigma_m ~ v T (0.047 m at 0.1 s) the particles cannot leave a wrong learnt velocity. The seed's sigma_m also makes
-the SKDU cloud overconfident: position NEES ~6 (2 expected) at T = 0.2 s on ``indoor-monostatic``, ~2.5 with
-sigma_m = 0.2 m (which also lowers the 80 % point to 0.72 m). With sigma_m = 0.2 m SDL and SKDU are close at
-T = 0.2 s (0.79 / 0.72 m, as the seed finds) and SKDU stays better at 0.1 s (0.51 against 0.87 m).
+Fig. 4 (OLOS, ``python scripts/seed002_neo.py --walks 5``): SKDU 0.94 / 0.92 / 1.45 m at T = 0.5 / 0.2 / 0.1 s
+(seed: below 2.7 m at 0.5 and 0.2 s); SDL 1.12 / 0.65 / 1.06 m (seed: 5.0 and 2.7 m at 0.5 and 0.2 s, best at
+0.1 s): the seed's order on these 5 walks. On 20 walks SKDU 1.35 / 1.15 / 1.73 m, SDL 1.17 / 0.91 / 1.10 m, SDL
+minus SKDU -0.19 [-0.35, -0.05], -0.23 [-0.41, +0.02], -0.63 [-1.09, -0.24] m (90 % bootstrap over walks): at
+0.5 s the two are a few tenths apart and the 5-walk order does not hold (SDL falls back to a broad cloud when
+its velocity is uncertain: C_v per axis ~0.75 m/s at 0.5 s against SKDU's v / sqrt 2); SDL's advantage grows as
+T shrinks, as the seed finds, but not because its learnt velocity gets more accurate (|v_el - v| ~0.7 m/s at
+every T with the 1 s window): SKDU degrades. Its cloud spreads per axis by v sqrt(T t (1/2 + 1/(2 ln 10))) in t
+seconds (a step of v T in a new random direction each scan, plus sigma_m ~ v T): 0.60 / 0.38 / 0.27 m in 1 s
+while the walker moves 1 m in one direction; its position NEES median grows 1.5 / 3.2 / 8.3 (20 walks). The
+literal SDL (N_v = 5, no spread) gives 2.81 / 3.57 / 5.47 m on the 5 walks: the seed's order at 0.5 s (its 5 m),
+worse than SKDU at every T (the SDL bullet above). The seed's sigma_m also makes the SKDU cloud overconfident:
+position NEES ~6 (2 expected) at T = 0.2 s on ``indoor-monostatic``, ~2.5 with sigma_m = 0.2 m (which also lowers
+the 80 % point to 0.72 m).
 """
 
 from __future__ import annotations
@@ -170,33 +210,110 @@ def skdu_displacements(n: int, speed_mps: float, dt: float, sigma_m: float, rng:
     return step + sigma_m * rng.standard_normal((n, 2))
 
 
-def sdl_displacements(n: int, velocity: FloatArray, dt: float, sigma_m: float, rng: np.random.Generator) -> FloatArray:
-    """``(n, 2)`` SDL displacements (eq. 18 in eq. 15): v_el dt + N(0, sigma_m^2 I), ``velocity`` (2,) [m/s]."""
-    return np.asarray(velocity, float) * dt + sigma_m * rng.standard_normal((n, 2))
+def sdl_displacements(
+    n: int,
+    velocity: FloatArray,
+    dt: float,
+    sigma_m: float,
+    rng: np.random.Generator,
+    velocity_cov: FloatArray | None = None,
+) -> FloatArray:
+    """``(n, 2)`` SDL displacements (eq. 18 in eq. 15): v dt + N(0, sigma_m^2 I), ``velocity`` (2,) [m/s].
+
+    ``velocity_cov`` (2, 2) [m^2/s^2]: each particle draws its own v ~ N(``velocity``, ``velocity_cov``) (the learnt
+    velocity's uncertainty, module docstring); None or zero: every particle moves by the same v_el (the seed's).
+    """
+    v = np.asarray(velocity, float)
+    if velocity_cov is not None and np.any(velocity_cov):
+        chol = np.linalg.cholesky(np.asarray(velocity_cov, float) + 1e-12 * np.eye(2))
+        v = v + rng.standard_normal((n, 2)) @ chol.T
+    return v * dt + sigma_m * rng.standard_normal((n, 2))
 
 
-def sdl_velocity(estimates: FloatArray, times: FloatArray, window: int) -> FloatArray | None:
-    """v_el (eq. 17 as read, module docstring): ``(2,)`` mean velocity over the last ``window`` steps.
+def sdl_coefficients(times: FloatArray, window: int, estimator: str = "difference") -> FloatArray | None:
+    """``(window + 1,)`` weights a_i of the learnt velocity v_el = sum_i a_i p^_i, the last ``window + 1`` estimates.
+
+    ``difference`` (eq. 17 as read): the mean of the window's successive differences, (p^_last - p^_first) / span;
+    ``lsq``: the least-squares slope of the estimates against their ``times`` (K,) [s], a_i = (t_i - t_bar) / S_tt
+    with S_tt = sum (t_i - t_bar)^2 (the unbiased linear estimator of smallest variance for independent estimates of
+    equal covariance). None with fewer than ``window + 1`` times or a zero span.
+    """
+    if times.shape[0] < window + 1:
+        return None
+    t = np.asarray(times[-1 - window :], float)
+    if t[-1] - t[0] <= 0.0:
+        return None
+    if estimator == "lsq":
+        c = t - t.mean()
+        return c / float(c @ c)
+    a = np.zeros(window + 1)
+    a[0], a[-1] = -1.0 / (t[-1] - t[0]), 1.0 / (t[-1] - t[0])
+    return a
+
+
+def sdl_velocity(
+    estimates: FloatArray,
+    times: FloatArray,
+    window: int,
+    estimator: str = "difference",
+    covs: FloatArray | None = None,
+) -> FloatArray | None:
+    """v_el (eq. 17, module docstring): ``(2,)`` velocity learnt from the last ``window`` steps of estimates.
 
     ``estimates``: ``(K, 2)`` past position estimates, oldest first, at ``times`` (K,) [s] (N_v T apart at a
-    regular scan period T); None with fewer than ``window + 1``.
+    regular scan period T); None with fewer than ``window + 1``. ``estimator``: ``sdl_coefficients``.
     """
-    if estimates.shape[0] < window + 1:
+    out = sdl_velocity_moments(estimates, times, window, estimator, covs)
+    return None if out is None else out[0]
+
+
+def sdl_velocity_moments(
+    estimates: FloatArray,
+    times: FloatArray,
+    window: int,
+    estimator: str = "difference",
+    covs: FloatArray | None = None,
+) -> tuple[FloatArray, FloatArray, float] | None:
+    """``(v_el (2,), Cov(v_el) (2, 2), t_ref)``: the learnt velocity, its covariance and the time it refers to.
+
+    v_el = sum_i a_i p^_i (``sdl_coefficients``); with the estimates' covariances ``covs`` (K, 2, 2) taken as
+    independent, Cov(v_el) = sum_i a_i^2 P_i (zero without ``covs``). t_ref = the window's mean time (a linear
+    velocity is exact there; for equally spaced estimates the midpoint of the window for both estimators).
+    """
+    a = sdl_coefficients(times, window, estimator)
+    if a is None:
         return None
-    span = times[-1] - times[-1 - window]
-    return (estimates[-1] - estimates[-1 - window]) / span if span > 0.0 else None
+    p = np.asarray(estimates[-1 - window :], float)
+    v = a @ p
+    cov = np.zeros((2, 2))
+    if covs is not None:
+        cov = np.einsum("i,ijk->jk", a * a, np.asarray(covs[-1 - window :], float))
+    return v, cov, float(np.mean(times[-1 - window :]))
 
 
-def displacement_moments(pf: PfConfig, dt: float, velocity: FloatArray | None) -> tuple[FloatArray, float]:
-    """Mean ``(2,)`` and per-axis variance of one displacement of the mobility model over ``dt``.
+def sdl_window_steps(pf: PfConfig, dt: float) -> int:
+    """N_v at scan interval ``dt`` [s]: round(``sdl_window_s`` / dt) (at least 1), or ``sdl_window`` when it is 0."""
+    if pf.sdl_window_s > 0.0:
+        return max(1, round(pf.sdl_window_s / dt))
+    return pf.sdl_window
 
-    SKDU (or SDL before its window fills, ``velocity`` None): mean 0, variance v^2 dt^2 / 2 + sigma_m^2 (the uniform
-    heading's (cos, sin) has per-axis variance 1/2); SDL: mean ``velocity`` dt, variance sigma_m^2.
+
+def displacement_moments(
+    pf: PfConfig, dt: float, velocity: FloatArray | None, velocity_cov: FloatArray | None = None
+) -> tuple[FloatArray, FloatArray]:
+    """Mean ``(2,)`` and covariance ``(2, 2)`` of one displacement of the mobility model over ``dt``.
+
+    SKDU (or SDL before its window fills, ``velocity`` None): mean 0, covariance (v^2 dt^2 / 2 + sigma_m^2) I (the
+    uniform heading's (cos, sin) has per-axis variance 1/2); SDL: mean ``velocity`` dt, covariance
+    ``velocity_cov`` dt^2 + sigma_m^2 I (the particles' velocity spread, ``sdl_displacements``).
     """
     sigma = mobility_std(pf, dt)
     if pf.mobility == "sdl" and velocity is not None:
-        return np.asarray(velocity, float) * dt, sigma**2
-    return np.zeros(2), 0.5 * (pf.speed_mps * dt) ** 2 + sigma**2
+        cov = sigma**2 * np.eye(2)
+        if velocity_cov is not None:
+            cov = cov + np.asarray(velocity_cov, float) * dt**2
+        return np.asarray(velocity, float) * dt, cov
+    return np.zeros(2), (0.5 * (pf.speed_mps * dt) ** 2 + sigma**2) * np.eye(2)
 
 
 def move_particles(
@@ -314,19 +431,23 @@ def _moment_state(pos: FloatArray, vel: FloatArray, w: FloatArray) -> tuple[Floa
 
 
 def _predict_moments(
-    x: FloatArray, P: FloatArray, d_mean: FloatArray, d_var: float, dt: float
+    x: FloatArray, P: FloatArray, d_mean: FloatArray, d_cov: FloatArray, dt: float
 ) -> tuple[FloatArray, FloatArray]:
-    """Moment map of ``x (N, 6)``, ``P (N, 6, 6)``: position + d, velocity d / dt, d independent of the state."""
+    """Moment map of ``x (N, 6)``, ``P (N, 6, 6)``: position + d, velocity d / dt, d independent of the state.
+
+    d ~ (``d_mean`` (N, 2), ``d_cov`` (2, 2) or (N, 2, 2)).
+    """
     n = x.shape[0]
     xo = np.zeros_like(x)
     Po = np.zeros_like(P)
     pos_i, vel_i = np.array([0, 2]), np.array([1, 3])
+    d_cov = np.broadcast_to(np.asarray(d_cov, float), (n, 2, 2))
     xo[:, pos_i] = x[:, pos_i] + d_mean
     xo[:, vel_i] = d_mean / dt
-    Po[:, pos_i[:, None], pos_i[None]] = P[:, pos_i[:, None], pos_i[None]] + d_var * np.eye(2)
-    Po[:, vel_i[:, None], vel_i[None]] = d_var / dt**2 * np.eye(2)
-    Po[:, pos_i[:, None], vel_i[None]] = d_var / dt * np.eye(2)
-    Po[:, vel_i[:, None], pos_i[None]] = d_var / dt * np.eye(2)
+    Po[:, pos_i[:, None], pos_i[None]] = P[:, pos_i[:, None], pos_i[None]] + d_cov
+    Po[:, vel_i[:, None], vel_i[None]] = d_cov / dt**2
+    Po[:, pos_i[:, None], vel_i[None]] = d_cov / dt
+    Po[:, vel_i[:, None], pos_i[None]] = d_cov / dt
     Po[:, 4, 4] = Po[:, 5, 5] = ACCELERATION_STD**2
     return xo.reshape(n, 6), Po
 
@@ -388,6 +509,7 @@ class ParticleFilterTracker:
         self._w: FloatArray | None = None
         self._time: float | None = None
         self._estimates: list[FloatArray] = []
+        self._estimate_covs: list[FloatArray] = []
         self._estimate_times: list[float] = []
         self._born = 0
         self._age = 0
@@ -407,19 +529,39 @@ class ParticleFilterTracker:
             return None
         return self._pos.copy(), self._vel.copy(), self._w.copy()
 
-    def _velocity(self) -> FloatArray | None:
-        """SDL's learnt velocity (None: SKDU, or the window is not full yet)."""
-        if self.pf.mobility != "sdl":
+    def _velocity(self, dt: float) -> tuple[FloatArray, FloatArray] | None:
+        """SDL's learnt velocity for a move of ``dt`` from the last scan, and the covariance its particles draw from.
+
+        None: SKDU, or the window is not full yet. The covariance (``sdl_velocity_spread``) is Cov(v_el) from the
+        estimates' covariances plus the manoeuvre over the lag tau from the window's time to the move's midpoint,
+        sigma_a^2 tau^2 I (module docstring); zero without the spread (the seed's).
+        """
+        pf = self.pf
+        if pf.mobility != "sdl" or not self._estimates:
             return None
-        return sdl_velocity(np.asarray(self._estimates), np.asarray(self._estimate_times), self.pf.sdl_window)
+        out = sdl_velocity_moments(
+            np.asarray(self._estimates),
+            np.asarray(self._estimate_times),
+            sdl_window_steps(pf, dt),
+            pf.sdl_estimator,
+            np.asarray(self._estimate_covs),
+        )
+        if out is None:
+            return None
+        v, cov, t_ref = out
+        if not pf.sdl_velocity_spread:
+            return v, np.zeros((2, 2))
+        lag = self._estimate_times[-1] + 0.5 * dt - t_ref
+        return v, cov + (pf.sdl_accel_std_mps2 * lag) ** 2 * np.eye(2)
 
     def _draw(self, dt: float) -> Callable[[int], FloatArray]:
         pf, rng = self.pf, self._rng
         sigma = mobility_std(pf, dt)
-        velocity = self._velocity()
-        if velocity is None:
+        learnt = self._velocity(dt)
+        if learnt is None:
             return lambda n: skdu_displacements(n, pf.speed_mps, dt, sigma, rng)
-        return lambda n: sdl_displacements(n, velocity, dt, sigma, rng)
+        velocity, cov = learnt
+        return lambda n: sdl_displacements(n, velocity, dt, sigma, rng, cov)
 
     def _walls(self) -> tuple[FloatArray, FloatArray]:
         if self.pf.respect_walls:
@@ -511,8 +653,12 @@ class ParticleFilterTracker:
             w = np.full(pf.n_particles, 1.0 / pf.n_particles)
         self._w = w
         self._estimates.append(x[[0, 2]].copy())
+        self._estimate_covs.append(P[np.ix_([0, 2], [0, 2])].copy())
         self._estimate_times.append(time_s)
-        del self._estimates[: -(pf.sdl_window + 1)], self._estimate_times[: -(pf.sdl_window + 1)]
+        # keep the last sdl_window + 1 estimates, and every one of the last 2 sdl_window_s seconds
+        old = sum(1 for t in self._estimate_times if t < time_s - 2.0 * pf.sdl_window_s)
+        drop = max(0, min(old, len(self._estimates) - (pf.sdl_window + 1)))
+        del self._estimates[:drop], self._estimate_covs[:drop], self._estimate_times[:drop]
         self._tracks = TrackSet(
             ids=np.zeros(1, np.int64),
             confirmed=np.array([confirmed]),
@@ -534,8 +680,10 @@ class ParticleFilterTracker:
         dt = time_s - (self._time if self._time is not None else time_s)
         x, P = _moment_state(self._pos, self._vel, self._w)
         if dt > 0.0:
-            d_mean, d_var = displacement_moments(self.pf, dt, self._velocity())
-            x, P = _predict_moments(x[None], P[None], d_mean[None], d_var, dt)
+            learnt = self._velocity(dt)
+            velocity, cov = (None, None) if learnt is None else learnt
+            d_mean, d_cov = displacement_moments(self.pf, dt, velocity, cov)
+            x, P = _predict_moments(x[None], P[None], d_mean[None], d_cov, dt)
         else:
             x, P = x[None], P[None]
         return Prediction(x=x, P=P, mu=np.ones((1, 1)), active=np.ones(1, bool))
@@ -545,13 +693,14 @@ class ParticleFilterTracker:
         if dt <= 0.0:
             return pred
         x = np.asarray(pred.x, float)
-        if self.pf.mobility == "sdl" and self._velocity() is not None:  # SDL moves as SKDU until its window fills
+        learnt = self._velocity(dt) if self.pf.mobility == "sdl" else None
+        if learnt is not None:  # SDL moves as SKDU until its window fills
             d_mean = x[:, [1, 3]] * dt
-            d_var = mobility_std(self.pf, dt) ** 2
+            d_cov = displacement_moments(self.pf, dt, learnt[0], learnt[1])[1]
         else:
-            d_mean, d_var = displacement_moments(self.pf, dt, None)
+            d_mean, d_cov = displacement_moments(self.pf, dt, None)
             d_mean = np.broadcast_to(d_mean, (x.shape[0], 2))
-        xo, Po = _predict_moments(x, np.asarray(pred.P, float), d_mean, d_var, dt)
+        xo, Po = _predict_moments(x, np.asarray(pred.P, float), d_mean, d_cov, dt)
         return Prediction(x=xo, P=Po, mu=pred.mu, active=pred.active)
 
     def expected_update(
