@@ -45,7 +45,11 @@ Mobility (eq. 15: p_k ~ N(mu_m, sigma_m^2 I), per particle):
   / 0.78 / 0.95 m; estimator "difference" 1.17 / 0.93 / 1.17 m.
 
   Until the window holds N_v + 1 estimates the SDL filter moves its particles as SKDU does (the seed does not say
-  how its window starts; our choice).
+  how its window starts; our choice). Open failure mode: where the scans say little for a while, the cloud moves
+  at v_el and its estimates confirm v_el (dead reckoning; Cov(v_el) takes the estimates as independent, which the
+  feedback makes them not): the track can run away at walking speed where SKDU's diffuse cloud waits. Seen on 1 of
+  the 60 SDL runs above (walk 6 at T = 0.2 s: 80 % error 11.5 m, SKDU 1.6 m) and on walk 0 at T = 0.1 s with
+  N_pulse = 32 (error growing ~1 m/s from 1 s on; SKDU stays below 1.7 m).
 - sigma_m: the seed's rule "with probability 0.9 the new position is within a circle centred on mu_m of radius
   v T": for a 2-D isotropic Gaussian P(|d - mu| < r) = 1 - exp(-r^2 / (2 sigma^2)), so
   sigma_m = v T / sqrt(-2 ln 0.1) = 0.093 m at T = 0.2 s (the seed prints "sigma_m = 1m", which contradicts its own
