@@ -53,11 +53,22 @@ Algorithms: ppo, a2c, dqn, maskable-ppo. Hyper-parameters come from the versione
 ``--env-kwarg KEY=VALUE`` goes to ``gymnasium.make`` (dotted scenario overrides included). ``--resume`` continues
 from the newest checkpoint up to ``--timesteps`` in total. Evaluate a trained run in a paired campaign with
 ``uwb-env-evaluate --schemes myopic rl:RUN_DIR ...``.
+
+With ``--engine rllib`` (the ``ray`` extra; RLlib's new API stack, ``agents/rl/rllib_engine.py``):
+
+    uwb-env-train --engine rllib --env uwb_env/IndoorSensorSubset-v0 --algo ppo --timesteps 20000 \
+        --env-runners 2 --envs-per-runner 2 --out runs/subset-rllib
+    uwb-env-train --engine rllib --address auto ...     # on a cluster started with ray start --head
+
+Algorithms: ppo (invalid actions masked) and dqn. ``--hyper`` takes RLlib's names (lr, gamma, lambda_,
+train_batch_size_per_learner, fcnet_hiddens, eval_episodes, ...); the defaults translate the SB3 preset.
+Checkpoints every ``--checkpoint-every`` iterations and at the end; evaluate with ``--schemes rllib:RUN_DIR``.
 """
 
 
 RL_INSTALL = 'pip install torch==2.13.0 (a CPU build is on disk on these machines), then pip install -e ".[rl]"'
 ALGORITHM_NAMES = ("a2c", "dqn", "maskable-ppo", "ppo")  # agents.rl.ALGORITHMS, named here to parse without torch
+ENGINES = ("sb3", "rllib")  # --engine: stable-baselines3 (agents.rl.training) or RLlib (agents.rl.rllib_engine)
 
 
 def parse_overrides(items: Sequence[str], flag: str = "--set") -> dict[str, Any]:
@@ -195,8 +206,9 @@ def train_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(
         prog="uwb-env-train", description=TRAIN_DOC, formatter_class=argparse.RawDescriptionHelpFormatter
     )
+    ap.add_argument("--engine", choices=ENGINES, default="sb3", help="stable-baselines3 (default) or RLlib (.[ray])")
     ap.add_argument("--env", default="uwb_env/UrbanWaveform-v2", choices=sorted(ENV_IDS))
-    ap.add_argument("--algo", default="maskable-ppo", choices=ALGORITHM_NAMES)
+    ap.add_argument("--algo", choices=ALGORITHM_NAMES, help="sb3: default maskable-ppo; rllib: ppo (default) or dqn")
     ap.add_argument("--timesteps", type=count(1), default=100_000, help="environment steps in total, >= 1")
     ap.add_argument("--out", type=folder, required=True, help="the run's folder")
     ap.add_argument("--seed", type=count(0), default=0, help="the training seed, >= 0")
@@ -205,6 +217,11 @@ def train_parser() -> argparse.ArgumentParser:
     add_pairs(ap, "--env-kwarg", "env_kwargs", "argument of gymnasium.make; repeatable, several per flag")
     ap.add_argument("--tensorboard", action="store_true", help="also log to TensorBoard (needs tensorboard)")
     ap.add_argument("--no-progress", action="store_true")
+    rllib = ap.add_argument_group("--engine rllib")
+    rllib.add_argument("--env-runners", type=count(1), help="Ray actors sampling the env, >= 1 (default 2)")
+    rllib.add_argument("--envs-per-runner", type=count(1), help="envs per runner, >= 1 (default 1)")
+    rllib.add_argument("--checkpoint-every", type=count(1), help="training iterations between checkpoints (default 5)")
+    rllib.add_argument("--address", help="a Ray cluster to join (auto, ray://host:10001); none: a local Ray")
     return ap
 
 
@@ -220,15 +237,66 @@ def import_rl():
     return rl
 
 
+RLLIB_ONLY = ("env_runners", "envs_per_runner", "checkpoint_every", "address")
+
+
+def import_rllib():
+    """``uwb_env.agents.rl.rllib_engine`` with RLlib, or ``SystemExit`` naming the extra to install."""
+    try:
+        import uwb_env.agents.rl.rllib_engine as engine
+
+        engine._import_rllib()
+    except ImportError as e:
+        missing = getattr(e, "name", None) or str(e)
+        raise SystemExit(
+            f"uwb-env-train: error: --engine rllib needs the ray extra ({missing} is missing): pip install -e '.[ray]'"
+        ) from None
+    return engine
+
+
+def train_rllib_main(ap: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """``uwb-env-train --engine rllib``."""
+    if args.tensorboard:
+        ap.error("--tensorboard: only with --engine sb3 (RLlib's metrics are in progress.csv)")
+    engine = import_rllib()
+    try:
+        cfg = engine.RLlibTrainConfig(
+            env_id=args.env,
+            algo=args.algo or "ppo",
+            timesteps=args.timesteps,
+            out=args.out,
+            seed=args.seed,
+            env_kwargs=parse_overrides(args.env_kwargs, "--env-kwarg"),
+            overrides=parse_overrides(args.hyper, "--hyper"),
+            env_runners=2 if args.env_runners is None else args.env_runners,
+            envs_per_runner=1 if args.envs_per_runner is None else args.envs_per_runner,
+            checkpoint_every=5 if args.checkpoint_every is None else args.checkpoint_every,
+            address=args.address,
+        )
+    except ValueError as e:
+        ap.error(str(e))
+    try:
+        algo = engine.train_rllib(cfg, resume=args.resume, progress=not args.no_progress)
+    except (ValueError, FolderLocked) as e:
+        ap.error(str(e))
+    steps = engine.sampled_steps(algo)
+    print(f"trained rllib {cfg.algo} on {args.env}: {algo.iteration} iterations, {steps} steps; run in {args.out}/")
+
+
 def train_main(argv: Sequence[str] | None = None) -> None:
     """``uwb-env-train``: train (or resume) an RL scheduler."""
     ap = train_parser()
     args = ap.parse_args(argv)
+    if args.engine == "rllib":
+        return train_rllib_main(ap, args)
+    given = [name for name in RLLIB_ONLY if getattr(args, name) is not None]
+    if given:
+        ap.error(f"--{given[0].replace('_', '-')}: only with --engine rllib")
     rl = import_rl()
     try:
         cfg = rl.TrainConfig(
             env_id=args.env,
-            algo=args.algo,
+            algo=args.algo or "maskable-ppo",
             timesteps=args.timesteps,
             out=args.out,
             seed=args.seed,
@@ -239,7 +307,7 @@ def train_main(argv: Sequence[str] | None = None) -> None:
         model = rl.train(cfg, resume=args.resume, progress=not args.no_progress)
     except (ValueError, FolderLocked) as e:
         ap.error(str(e))
-    print(f"trained {args.algo} on {args.env}: {model.num_timesteps} steps; run in {args.out}/")
+    print(f"trained {args.algo or 'maskable-ppo'} on {args.env}: {model.num_timesteps} steps; run in {args.out}/")
 
 
 if __name__ == "__main__":

@@ -183,11 +183,16 @@ _NAMED = {"myopic": Myopic, "myopic-pd": DetectionConstrainedMyopic, "round-robi
 
 def scheduler_names() -> list[str]:
     """The names ``make_scheduler`` accepts."""
-    return [*_NAMED, "myopic-pdP", "fixed-K", "lookahead-D", "rl:PATH"]
+    return [*_NAMED, "myopic-pdP", "fixed-K", "lookahead-D", "rl:PATH", "rllib:PATH"]
 
 
 def check_scheduler_name(name: str) -> None:
-    """Raise ``ValueError`` unless ``make_scheduler(name)`` can build it (an ``rl:`` run is checked on disk only)."""
+    """Raise ``ValueError`` unless ``make_scheduler(name)`` can build it (``rl:`` / ``rllib:`` runs: on disk only)."""
+    if name.startswith("rllib:"):
+        run = pathlib.Path(name[6:])
+        if not (run / "run.yaml").is_file() or not ((run / "policy").is_dir() or (run / "checkpoints").is_dir()):
+            raise ValueError(f"scheduler={name!r}: {str(run)!r} is not a trained RLlib run (run.yaml and policy/)")
+        return
     if name.startswith("rl:"):
         path = pathlib.Path(name[3:])
         run = path if path.is_dir() else path.parent
@@ -201,8 +206,13 @@ def make_scheduler(name: str) -> Scheduler:
     """A scheduler from its name.
 
     ``myopic``, ``myopic-pd`` / ``myopic-pdP`` (minimum Pd P), ``round-robin``, ``random``, ``fixed-K`` (action K),
-    ``lookahead-D``, ``rl:PATH`` (a run directory of ``scripts/train.py`` or its model zip; needs the ``rl`` extra).
+    ``lookahead-D``, ``rl:PATH`` (a run directory of ``scripts/train.py`` or its model zip; needs the ``rl`` extra),
+    ``rllib:PATH`` (a run directory of ``uwb-env-train --engine rllib``; needs the ``ray`` extra).
     """
+    if name.startswith("rllib:"):
+        from uwb_env.agents.rl.rllib_engine import load_rllib_scheduler  # ray and torch only when asked for
+
+        return load_rllib_scheduler(name[6:])
     if name.startswith("rl:"):
         from uwb_env.agents.rl.training import load_scheduler  # stable-baselines3 and torch only when asked for
 

@@ -1,4 +1,8 @@
-"""Reinforcement-learning schedulers (stable-baselines3 / sb3-contrib): training, presets, trained-model agents."""
+"""Reinforcement-learning schedulers: training, presets, trained-model agents.
+
+stable-baselines3 / sb3-contrib (:mod:`.training`) and RLlib (:mod:`.rllib_engine`, the ``ray`` extra; its names
+are imported on first use, so importing this package does not import Ray).
+"""
 
 from uwb_env.agents.rl.training import (
     ALGORITHMS,
@@ -12,6 +16,18 @@ from uwb_env.agents.rl.training import (
     train,
 )
 
+_RLLIB = ("RLLIB_ALGORITHMS", "MaskedUWBEnv", "RLlibPolicyScheduler", "RLlibTrainConfig", "load_rllib_scheduler",
+          "rllib_checkpoints", "train_rllib")  # fmt: skip
+
+
+def __getattr__(name: str):
+    if name in _RLLIB:
+        from uwb_env.agents.rl import rllib_engine
+
+        return getattr(rllib_engine, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 __all__ = [
     "ALGORITHMS",
     "PolicyScheduler",
@@ -22,4 +38,5 @@ __all__ = [
     "load_scheduler",
     "make_vec_env",
     "train",
+    *_RLLIB,
 ]
