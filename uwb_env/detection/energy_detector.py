@@ -25,12 +25,15 @@ Every kernel works on a batch of sampled scans ``(B, N)`` (one row per radar pai
   z_n + Gamma(shape (N - 1) (W T_int + 1/2), mean (N - 1) M sigma_f'^2) (sigma_f'^2 the BPZF's kept fraction of
   unit noise; :func:`accumulated_noise_energy`): the same signal, N times the noise degrees of freedom -- the
   non-coherent integration loss that makes the ED need a higher per-pulse SNR than a coherent receiver.
-* Threshold-crossing ToA: the first bin n_hat with z_n > xi. The normalised threshold of the ED-ToA literature
-  (Dardari, Chong & Win 2008; the seed's [12], [26]) is xi = z_min + alpha (z_max - z_min) over the window's bins,
-  alpha in (0, 1); seed 002 instead picks xi per SNR by an exhaustive a-posteriori search of the ToA RMSE, which
-  needs the true ToA and is replaced here by the normalised threshold (alpha a configuration value). An optional
-  absolute floor xi_0 (the noise energy at a false-alarm probability) makes it a detector too: xi = max(xi, xi_0),
-  and a window whose z_max does not exceed xi_0 yields no ToA.
+* Threshold-crossing ToA: the first bin n_hat with z_n > xi. The normalised threshold of the threshold-based ED-ToA
+  literature (Dardari, Chong & Win 2008, the estimator of the seed's [12]) is xi = z_min + alpha (z_max - z_min)
+  over the window's bins, alpha in (0, 1). Seed 002 instead picks xi per SNR by an exhaustive a-posteriori search of
+  the ToA RMSE, which needs the true ToA and the SNR; it is replaced here by the normalised threshold with one alpha
+  (a configuration value), chosen offline by the same exhaustive search over alpha on synthetic scans
+  (:func:`search_threshold_ratio`: alpha 0.8-0.99 at every SNR for a single-pulse echo). An optional absolute floor
+  xi_0, the noise bin energy at a false-alarm probability over the window (noise power knowledge, as the seed's
+  footnote 8 alternative [26]), makes it a detector too: xi = max(xi, xi_0), and a window whose z_max does not
+  exceed xi_0 yields no ToA.
 
 ToA at the bin's centre, tau_hat = s + (n_hat + 1/2) M. Why the centre and its bias: at high SNR the crossing bin is
 the bin that holds the echo, so with the echo's delay tau uniform within a bin (no prior) the centre gives the
@@ -50,7 +53,8 @@ bias is -D (1 - alpha) / (2 (1 + alpha)). For a symmetric echo of energy profile
 centre (the signal path's pulse: s_e = s / sqrt 2, s the pulse envelope's std, 0.2 ns at 1.7 GHz), centred u into
 bin k, bin k - 1 holds q = Phi(-u / s_e) and is the first crossing when q > alpha (1 - q), i.e.
 u < s_e Phi^-1(1 / (1 + alpha)), so E[tau_hat - tau] = -s_e Phi^-1(1 / (1 + alpha)) (s_e << T): -0.11 ns (-3.4 cm of
-range) at alpha = 0.4, negligible against T_int / sqrt(12) (0.35 m of range at 4 ns), and not corrected.
+range) at alpha = 0.4, -0.006 ns at the default 0.95, negligible against T_int / sqrt(12) (0.35 m of range at
+4 ns), and not corrected.
 """
 
 from __future__ import annotations
