@@ -159,3 +159,31 @@ def test_dqn_refuses_an_env_with_invalid_actions(tmp_path):
 def test_a_folder_that_is_not_an_rllib_run_is_not_a_scheduler(tmp_path):
     with pytest.raises(ValueError, match="not a trained RLlib run"):
         check_scheduler_name(f"rllib:{tmp_path}")
+
+
+def test_a_run_folder_is_refused_without_resume_and_a_resume_must_match(tmp_path):
+    """Checked before Ray starts: nothing trains, nothing is written."""
+    out = tmp_path / "r"
+    cfg = RLlibTrainConfig(env_id="uwb_env/IndoorJoint-v0", algo="ppo", timesteps=10, out=out, seed=1)
+    out.mkdir()
+    (out / "run.yaml").write_text("engine: rllib\nenv_id: uwb_env/IndoorJoint-v0\nalgo: ppo\nseed: 0\n")
+    with pytest.raises(ValueError, match="already holds a training run"):
+        train_rllib(cfg)
+    with pytest.raises(ValueError, match=r"--resume: seed = 1 differs from the run's 0"):
+        train_rllib(cfg, resume=True)
+    assert sorted(p.name for p in out.iterdir()) == [".lock", "run.yaml"]  # the folder lock's file, released
+
+
+@pytest.mark.slow
+def test_resume_falls_back_to_the_previous_checkpoint_when_the_newest_is_damaged(tmp_path, local_ray, capsys):
+    out = tmp_path / "run"
+    cfg = RLlibTrainConfig(env_id="uwb_env/IndoorJoint-v0", algo="ppo", timesteps=256, out=out, overrides=TINY,
+                           checkpoint_every=1)  # fmt: skip
+    train_rllib(cfg, progress=False)
+    (out / "checkpoints" / "iter_000002" / "algorithm_state.pkl").write_bytes(b"cut")
+    algo = train_rllib(cfg, resume=True, progress=False)
+    err = capsys.readouterr().err
+    assert "iter_000002.damaged" in err and "resuming from" in err and "iteration 1, 128 steps" in err
+    assert algo.iteration == 2
+    assert [i for i, _ in rllib_checkpoints(out)] == [2, 1]
+    assert [r["timesteps"] for r in _rows(out / "progress.csv")] == ["128", "256"]  # the lost iteration replayed
