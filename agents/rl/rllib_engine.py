@@ -59,6 +59,7 @@ from uwb_env.envs import ENV_IDS
 
 RLLIB_ALGORITHMS = ("dqn", "ppo")
 _CHECKPOINT = re.compile(r"^iter_(\d+)$")
+LEARNER_MODULE = Path("learner_group", "learner", "rl_module", "default_policy")  # inside a checkpoint
 EVAL_COLUMNS = [
     "timesteps",
     "return",
@@ -425,7 +426,7 @@ def load_rllib_scheduler(run: str | Path) -> RLlibPolicyScheduler:
         found = rllib_checkpoints(path)
         if not found:
             raise FileNotFoundError(f"{str(module_dir)!r} not found and no checkpoint in {path / 'checkpoints'}")
-        module_dir = found[0][1] / "learner_group" / "learner" / "rl_module" / "default_policy"
+        module_dir = found[0][1] / LEARNER_MODULE
     torch.set_num_threads(1)  # a small MLP; campaign workers must not oversubscribe
     try:
         module = RLModule.from_checkpoint(str(module_dir))
@@ -568,23 +569,30 @@ def _train(cfg: RLlibTrainConfig, hyper: dict, resume: bool, progress: bool, met
             if progress:
                 print(f"iteration {algo.iteration}: {steps}/{cfg.timesteps} steps, return {ret:.4g}", file=sys.stderr)
             if algo.iteration % cfg.checkpoint_every == 0:
-                save_checkpoint(algo, out)
-                evaluator.evaluate(RLlibPolicyScheduler(algo.get_module(), masked), steps)
+                evaluator.evaluate(_scheduler_of(save_checkpoint(algo, out), masked), steps)
                 saved_at = algo.iteration
         if saved_at != algo.iteration:
-            save_checkpoint(algo, out)
-            evaluator.evaluate(RLlibPolicyScheduler(algo.get_module(), masked), steps)
-        _save_policy(algo, out)
+            evaluator.evaluate(_scheduler_of(save_checkpoint(algo, out), masked), steps)
+        _save_policy(rllib_checkpoints(out)[0][1], out)
     finally:
         algo.stop()
     return algo
 
 
-def _save_policy(algo: Any, out: Path) -> None:
-    """The final RLModule in ``policy/`` (written aside, then renamed)."""
+def _scheduler_of(checkpoint: Path, masked: bool) -> RLlibPolicyScheduler:
+    """The learner's module of a checkpoint as a scheduler (what the checkpoint holds, nothing newer)."""
+    from ray.rllib.core.rl_module.rl_module import RLModule
+
+    module = RLModule.from_checkpoint(str(checkpoint / LEARNER_MODULE))
+    module.eval()
+    return RLlibPolicyScheduler(module, masked)
+
+
+def _save_policy(checkpoint: Path, out: Path) -> None:
+    """The learner's module of the final checkpoint in ``policy/`` (copied aside, then renamed)."""
     tmp = out / f".tmp-policy-{os.getpid()}"
     shutil.rmtree(tmp, ignore_errors=True)
-    algo.get_module().save_to_path(str(tmp))
+    shutil.copytree(checkpoint / LEARNER_MODULE, tmp)
     old = out / "policy"
     if old.exists():
         shutil.rmtree(old)
