@@ -60,7 +60,7 @@ With ``--engine rllib`` (the ``ray`` extra; RLlib's new API stack, ``agents/rl/r
         --env-runners 2 --envs-per-runner 2 --out runs/subset-rllib
     uwb-env-train --engine rllib --address auto ...     # on a cluster started with ray start --head
 
-Algorithms: ppo (invalid actions masked) and dqn. ``--hyper`` takes RLlib's names (lr, gamma, lambda_,
+Algorithms: ppo and dqn, both masking the env's invalid actions. ``--hyper`` takes RLlib's names (lr, gamma, lambda_,
 train_batch_size_per_learner, fcnet_hiddens, eval_episodes, ...); the defaults translate the SB3 preset.
 Checkpoints every ``--checkpoint-every`` iterations and at the end; evaluate with ``--schemes rllib:RUN_DIR``.
 """

@@ -4,17 +4,18 @@ The same run folder and the same evaluation as the stable-baselines3 engine (:mo
 scale-out: ``--env-runners N`` Ray actors sample ``--envs-per-runner M`` envs each (on this machine, or spread
 over a cluster started with ``ray start --head`` and joined with ``--address``), one learner updates the policy.
 
-* :data:`RLLIB_ALGORITHMS`: ``ppo`` (masked: invalid actions of the env's ``action_masks()`` get zero
-  probability) and ``dqn`` (off-policy; on envs whose every action is valid);
-* :class:`MaskedUWBEnv`: the env as RLlib sees it, ``Dict(action_mask, observations)`` for ``ppo``, the plain
-  ``Box`` for ``dqn``; the class travels to the runners by reference, so each runner imports uwb_env itself;
-* :class:`MaskedPPOTorchRLModule`: PPO's default module, its logits masked (RLlib's action-masking example);
+* :data:`RLLIB_ALGORITHMS`: ``ppo`` and ``dqn`` (off-policy), both masked: the invalid actions of the env's
+  ``action_masks()`` are never sampled, explored or chosen;
+* :class:`MaskedUWBEnv`: the env as RLlib sees it, ``Dict(action_mask, observations)``; the class travels to the
+  runners by reference, so each runner imports uwb_env itself;
+* :class:`MaskedPPOTorchRLModule` (PPO's default module, logits of invalid actions -inf: RLlib's action-masking
+  example) and :class:`MaskedDQNTorchRLModule` (DQN's, Q-values of invalid actions -inf);
 * :func:`train_rllib`: builds (or resumes from the newest readable checkpoint: module, optimiser, iteration and
   step counters) and trains up to ``timesteps`` sampled steps, checkpointing every ``checkpoint_every``
   iterations and at the end, evaluating the policy at each checkpoint against myopic and round-robin on the fixed
   evaluation seeds of the SB3 engine (``eval.csv``, same columns);
 * :class:`RLlibPolicyScheduler` / :func:`load_rllib_scheduler`: the trained module as a campaign scheduler
-  (``rllib:RUN_DIR``): the greedy action of ``forward_inference``, invalid actions masked.
+  (``rllib:RUN_DIR``): the greedy action (PPO's logits, DQN's Q-values), invalid actions masked.
 
 Hyper-parameters: the SB3 preset of the env (``agents/rl/presets/<Id>.yaml``) translated to RLlib's names
 (:func:`rllib_hyper`), then ``--hyper KEY=VALUE`` with RLlib's names (``lr``, ``gamma``, ``lambda_``,
@@ -69,7 +70,7 @@ EVAL_COLUMNS = [
     "round_robin_return",
     "round_robin_trace_m2",
 ]  # fmt: skip  (the SB3 engine's eval.csv)
-PROGRESS_COLUMNS = ["training_iteration", "timesteps", "episode_return_mean", "episode_len_mean", "time_s"]
+PROGRESS_COLUMNS = ["training_iteration", "timesteps", "episode_return_mean", "episode_len_mean", "loss", "time_s"]
 MODEL_KEYS = ("fcnet_hiddens", "fcnet_activation")  # --hyper keys that go to the module's model_config
 COMMON_KEYS = ("eval_episodes",)
 
@@ -87,10 +88,10 @@ def _import_rllib():
 
 # ------------------------------------------------------------------------------------------------ the env
 class MaskedUWBEnv(gym.Env):
-    """A registered env as RLlib's runners build it: ``MaskedUWBEnv({"env_id", "env_kwargs", "mask"})``.
+    """A registered env as RLlib's runners build it: ``MaskedUWBEnv({"env_id": ..., "env_kwargs": {...}})``.
 
-    With ``mask`` the observation is ``Dict(action_mask=Box(0, 1, (n,)), observations=<the env's Box>)``, the mask
-    being the env's ``action_masks()`` (1.0: valid); without, the env's own observation.
+    The observation is ``Dict(action_mask=Box(0, 1, (n,)), observations=<the env's Box>)``, the mask being the env's
+    ``action_masks()`` (1.0: valid; all ones on the registered ids' defaults).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": []}
@@ -98,19 +99,13 @@ class MaskedUWBEnv(gym.Env):
     def __init__(self, config: dict[str, Any] | None = None) -> None:
         config = dict(config or {})
         self.env = gym.make(config["env_id"], **dict(config.get("env_kwargs") or {}))
-        self.mask = bool(config.get("mask", True))
         self.action_space = self.env.action_space
-        if self.mask:
-            n = int(self.action_space.n)
-            self.observation_space = gym.spaces.Dict(
-                {"action_mask": gym.spaces.Box(0.0, 1.0, (n,), np.float32), "observations": self.env.observation_space}
-            )
-        else:
-            self.observation_space = self.env.observation_space
+        n = int(self.action_space.n)
+        self.observation_space = gym.spaces.Dict(
+            {"action_mask": gym.spaces.Box(0.0, 1.0, (n,), np.float32), "observations": self.env.observation_space}
+        )
 
-    def _obs(self, obs: Any) -> Any:
-        if not self.mask:
-            return obs
+    def _obs(self, obs: Any) -> dict[str, Any]:
         return {"action_mask": self.env.unwrapped.action_masks().astype(np.float32), "observations": obs}
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):  # noqa: D102 - gym API
@@ -125,17 +120,17 @@ class MaskedUWBEnv(gym.Env):
         self.env.close()
 
 
-try:  # the module class needs RLlib; without it the engine refuses to run (``_import_rllib``)
+try:  # the module classes need RLlib; without it the engine refuses to run (``_import_rllib``)
     import torch
+    from ray.rllib.algorithms.dqn.torch.default_dqn_torch_rl_module import DefaultDQNTorchRLModule
     from ray.rllib.algorithms.ppo.torch.default_ppo_torch_rl_module import DefaultPPOTorchRLModule
     from ray.rllib.core.columns import Columns
     from ray.rllib.utils.torch_utils import FLOAT_MIN
 
-    class MaskedPPOTorchRLModule(DefaultPPOTorchRLModule):
-        """PPO's default torch module on ``Dict(action_mask, observations)``: logits of invalid actions -> -inf.
+    class _OnMaskedObservations:
+        """A module built on the ``observations`` part of ``Dict(action_mask, observations)``.
 
-        RLlib's ``ActionMaskingTorchRLModule`` example, on ``DefaultPPOTorchRLModule``. The networks are built on
-        the ``observations`` part; ``observation_space`` stays the ``Dict`` (so a checkpoint rebuilds it).
+        ``observation_space`` stays the ``Dict`` once built (so that a checkpoint rebuilds the module with it).
         """
 
         def __init__(self, *, observation_space: gym.Space | None = None, **kwargs: Any) -> None:
@@ -147,9 +142,16 @@ try:  # the module class needs RLlib; without it the engine refuses to run (``_i
             self.observation_space_with_mask = observation_space
             super().__init__(observation_space=observation_space["observations"], **kwargs)
 
-        def setup(self) -> None:  # noqa: D102 - RLModule API
+        def setup(self) -> None:
+            """Build on the ``observations`` part, then keep the ``Dict`` as the module's space."""
             super().setup()
             self.observation_space = self.observation_space_with_mask
+
+    class MaskedPPOTorchRLModule(_OnMaskedObservations, DefaultPPOTorchRLModule):
+        """PPO's default torch module on ``Dict(action_mask, observations)``: logits of invalid actions -> -inf.
+
+        RLlib's ``ActionMaskingTorchRLModule`` example, on ``DefaultPPOTorchRLModule``.
+        """
 
         @staticmethod
         def _split(batch: dict) -> tuple[Any, dict]:
@@ -184,8 +186,28 @@ try:  # the module class needs RLlib; without it the engine refuses to run (``_i
                 batch["action_mask"] = mask  # _forward_train reads it after the values (GAE)
             return super().compute_values(batch, embeddings)
 
+    class MaskedDQNTorchRLModule(_OnMaskedObservations, DefaultDQNTorchRLModule):
+        """DQN's default torch module on ``Dict(action_mask, observations)``: Q-values of invalid actions -> -inf.
+
+        Every Q-value of the module (online, target, current and next observations) goes through
+        ``_qf_forward_helper``, so the greedy action, the double-Q argmax and the target's max range over the valid
+        actions; RLlib's epsilon-greedy draws its random actions among the finite Q-values, and its loss reads -inf
+        as 0 (``nan_to_num``). Expected Q-values only (``num_atoms`` 1, the default).
+        """
+
+        def _qf_forward_helper(self, batch: dict, encoder: Any, head: Any) -> dict:
+            obs = batch[Columns.OBS]
+            if not isinstance(obs, dict):
+                return super()._qf_forward_helper(batch, encoder, head)
+            out = super()._qf_forward_helper({**batch, Columns.OBS: obs["observations"]}, encoder, head)
+            q = out["qf_preds"]
+            out["qf_preds"] = torch.where(obs["action_mask"] > 0, q, torch.full_like(q, -torch.inf))
+            return out
+
+    MODULES = {"ppo": MaskedPPOTorchRLModule, "dqn": MaskedDQNTorchRLModule}
+
 except ImportError:  # pragma: no cover - without the ray extra
-    MaskedPPOTorchRLModule = None  # type: ignore[assignment,misc]
+    MODULES = {}
 
 
 # ------------------------------------------------------------------------------------------ configuration
@@ -273,22 +295,9 @@ def resolve_rllib(cfg: RLlibTrainConfig) -> dict[str, Any]:
         if key == "eval_episodes" and (isinstance(value, bool) or not isinstance(value, int) or value < 1):
             raise ValueError(f"--hyper eval_episodes={value!r}: must be an integer >= 1")
         hyper[key] = value
+    if hyper.get("num_atoms", 1) != 1:
+        raise ValueError(f"--hyper num_atoms={hyper['num_atoms']!r}: the masked DQN module takes expected Q-values (1)")
     return hyper
-
-
-def _check_masks(cfg: RLlibTrainConfig) -> bool:
-    """Whether the env (with ``cfg.env_kwargs``) has invalid actions; ``dqn`` refuses them."""
-    env = gym.make(cfg.env_id, **cfg.env_kwargs)
-    try:
-        invalid = not env.unwrapped.action_masks().all()
-    finally:
-        env.close()
-    if invalid and cfg.algo == "dqn":
-        raise ValueError(
-            f"algo='dqn' with --env-kwarg {cfg.env_kwargs}: the env has invalid actions (action_masks()) and RLlib's "
-            "DQN does not mask them; use --algo ppo (masked)"
-        )
-    return invalid
 
 
 def build_config(cfg: RLlibTrainConfig, hyper: dict[str, Any]):
@@ -296,12 +305,11 @@ def build_config(cfg: RLlibTrainConfig, hyper: dict[str, Any]):
     from ray.rllib.core.rl_module.rl_module import RLModuleSpec
 
     configs = _import_rllib()
-    masked = cfg.algo == "ppo"
     training = {k: v for k, v in hyper.items() if k not in MODEL_KEYS and k not in COMMON_KEYS}
     model = {k: hyper[k] for k in MODEL_KEYS if k in hyper}
     config = (
         configs[cfg.algo]()
-        .environment(MaskedUWBEnv, env_config={"env_id": cfg.env_id, "env_kwargs": cfg.env_kwargs, "mask": masked})
+        .environment(MaskedUWBEnv, env_config={"env_id": cfg.env_id, "env_kwargs": cfg.env_kwargs})
         .env_runners(
             num_env_runners=cfg.env_runners,
             num_envs_per_env_runner=cfg.envs_per_runner,
@@ -311,11 +319,7 @@ def build_config(cfg: RLlibTrainConfig, hyper: dict[str, Any]):
         .debugging(seed=cfg.seed)
         .reporting(metrics_num_episodes_for_smoothing=20)
     )
-    if masked:
-        config = config.rl_module(rl_module_spec=RLModuleSpec(module_class=MaskedPPOTorchRLModule, model_config=model))
-    else:
-        config = config.rl_module(model_config=model)
-    return config
+    return config.rl_module(rl_module_spec=RLModuleSpec(module_class=MODULES[cfg.algo], model_config=model))
 
 
 # -------------------------------------------------------------------------------------------- checkpoints
@@ -371,35 +375,38 @@ def resume_rllib(algo: Any, out: Path) -> int | None:
 
 # ------------------------------------------------------------------------------------------ the scheduler
 class RLlibPolicyScheduler:
-    """A trained RLModule as a :class:`agents.Scheduler`: the greedy action of ``forward_inference``, masked."""
+    """A trained RLModule as a :class:`agents.Scheduler`: its greedy action, invalid actions masked.
+
+    ``ppo``: the argmax of ``forward_inference``'s logits; ``dqn``: of the module's Q-values. The env's
+    ``action_masks()`` goes into the observation as in training, and the argmax is over the valid actions.
+    """
 
     name = "rllib"
 
-    def __init__(self, module: Any, masked: bool) -> None:
-        self.module, self.masked = module, masked
-        space = module.observation_space
-        self.obs_shape = tuple((space["observations"] if masked else space).shape)
+    def __init__(self, module: Any, algo: str) -> None:
+        if algo not in RLLIB_ALGORITHMS:
+            raise ValueError(f"algo={algo!r}: must be one of {list(RLLIB_ALGORITHMS)}")
+        self.module, self.algo = module, algo
+        self.obs_shape = tuple(module.observation_space["observations"].shape)
 
     def reset(self, seed: int | None = None) -> None:  # noqa: D102 - the protocol
         pass
 
     def scores(self, obs: Any, env: gym.Env) -> np.ndarray:
-        """``(n,)`` the module's action scores (logits, or Q-values for DQN) for ``obs``, before the env's mask."""
+        """``(n,)`` the module's action scores (logits, or Q-values for DQN); invalid actions -inf."""
         x = np.asarray(obs, dtype=np.float32)
         if x.shape != self.obs_shape:
             raise ValueError(
                 f"observation shape {x.shape} != {self.obs_shape}, the trained policy's: build the env with the "
                 "training run's env_kwargs (run.yaml; --env-kwarg in uwb-env-evaluate)"
             )
-        mask = env.unwrapped.action_masks()
-        t = torch.from_numpy(x)[None]
+        mask = torch.from_numpy(env.unwrapped.action_masks().astype(np.float32))[None]
+        batch = {Columns.OBS: {"action_mask": mask, "observations": torch.from_numpy(x)[None]}}
         with torch.no_grad():
-            if self.masked:
-                batch = {Columns.OBS: {"action_mask": torch.from_numpy(mask.astype(np.float32))[None],
-                                       "observations": t}}  # fmt: skip
-                out = self.module.forward_inference(batch)[Columns.ACTION_DIST_INPUTS]
+            if self.algo == "dqn":
+                out = self.module.compute_q_values(batch)["qf_preds"]
             else:
-                out = self.module.compute_q_values({Columns.OBS: t})["qf_preds"]
+                out = self.module.forward_inference(batch)[Columns.ACTION_DIST_INPUTS]
         return out[0].numpy().astype(float)
 
     def act(self, obs: Any, env: gym.Env) -> int:  # noqa: D102 - the protocol
@@ -433,7 +440,7 @@ def load_rllib_scheduler(run: str | Path) -> RLlibPolicyScheduler:
     except Exception as e:
         raise ValueError(f"{module_dir}: cannot be read as a saved RLModule ({type(e).__name__}: {e})") from e
     module.eval()
-    return RLlibPolicyScheduler(module, masked=cfg["algo"] == "ppo")
+    return RLlibPolicyScheduler(module, cfg["algo"])
 
 
 # --------------------------------------------------------------------------------------------- evaluation
@@ -516,7 +523,6 @@ def train_rllib(cfg: RLlibTrainConfig, resume: bool = False, progress: bool = Tr
     _import_rllib()
     hyper = resolve_rllib(cfg)
     check_env(cfg)  # type: ignore[arg-type]  (reads env_id and env_kwargs)
-    _check_masks(cfg)
     run_yaml = {"engine": "rllib", "env_id": cfg.env_id, "algo": cfg.algo, "seed": cfg.seed,
                 "timesteps": cfg.timesteps, "env_kwargs": cfg.env_kwargs, "hyper": hyper,
                 "env_runners": cfg.env_runners, "envs_per_runner": cfg.envs_per_runner,
@@ -557,7 +563,6 @@ def _train(cfg: RLlibTrainConfig, hyper: dict, resume: bool, progress: bool, met
         keep_rows_up_to(out / "progress.csv", "timesteps", steps)
         keep_rows_up_to(out / "eval.csv", "timesteps", steps)
         evaluator = RLlibEvaluator(cfg.env_id, cfg.env_kwargs, int(hyper["eval_episodes"]), out / "eval.csv")
-        masked = cfg.algo == "ppo"
         t0 = time.monotonic()
         saved_at = algo.iteration if steps else -1
         while steps < cfg.timesteps:
@@ -565,27 +570,30 @@ def _train(cfg: RLlibTrainConfig, hyper: dict, resume: bool, progress: bool, met
             steps = sampled_steps(algo, result)
             runners = result.get("env_runners", {})
             ret, length = runners.get("episode_return_mean", math.nan), runners.get("episode_len_mean", math.nan)
-            _progress_row(out / "progress.csv", [algo.iteration, steps, ret, length, round(time.monotonic() - t0, 3)])
+            learner = result.get("learners", {}).get("default_policy", {})
+            loss = next((learner[k] for k in ("total_loss", "qf_loss", "policy_loss") if k in learner), math.nan)
+            row = [algo.iteration, steps, ret, length, float(loss), round(time.monotonic() - t0, 3)]
+            _progress_row(out / "progress.csv", row)
             if progress:
                 print(f"iteration {algo.iteration}: {steps}/{cfg.timesteps} steps, return {ret:.4g}", file=sys.stderr)
             if algo.iteration % cfg.checkpoint_every == 0:
-                evaluator.evaluate(_scheduler_of(save_checkpoint(algo, out), masked), steps)
+                evaluator.evaluate(_scheduler_of(save_checkpoint(algo, out), cfg.algo), steps)
                 saved_at = algo.iteration
         if saved_at != algo.iteration:
-            evaluator.evaluate(_scheduler_of(save_checkpoint(algo, out), masked), steps)
+            evaluator.evaluate(_scheduler_of(save_checkpoint(algo, out), cfg.algo), steps)
         _save_policy(rllib_checkpoints(out)[0][1], out)
     finally:
         algo.stop()
     return algo
 
 
-def _scheduler_of(checkpoint: Path, masked: bool) -> RLlibPolicyScheduler:
+def _scheduler_of(checkpoint: Path, algo: str) -> RLlibPolicyScheduler:
     """The learner's module of a checkpoint as a scheduler (what the checkpoint holds, nothing newer)."""
     from ray.rllib.core.rl_module.rl_module import RLModule
 
     module = RLModule.from_checkpoint(str(checkpoint / LEARNER_MODULE))
     module.eval()
-    return RLlibPolicyScheduler(module, masked)
+    return RLlibPolicyScheduler(module, algo)
 
 
 def _save_policy(checkpoint: Path, out: Path) -> None:
