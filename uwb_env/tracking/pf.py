@@ -97,7 +97,10 @@ represents the belief; the track stays, tentative, and recovers by resampling an
 
 Estimate: the seed estimates the position as the maximiser of the belief (MAP); we report the weighted mean and
 covariance of the particles (MMSE; the MAP of a particle cloud needs a density estimate), which is what the other
-trackers' consumers read. ``scored_prediction`` is the exact first and second moment of the next cloud (the
+trackers' consumers read. Measured on Fig. 4's case (10 walks, MAP taken as the particle at the mode of a 0.3 m
+kernel density of the cloud): the MAP's 80 % points are the MMSE's within 0.07 m for both models at every T, and
+the MAP fed to SDL's learnt velocity is worse (0.89 -> 1.24 m at T = 0.2 s, 0.97 -> 1.27 m at 0.1 s).
+``scored_prediction`` is the exact first and second moment of the next cloud (the
 mobility model's displacement is independent of the particle; exact away from walls -- a move redrawn at a wall
 is not in the moments), computed analytically, so it neither changes the filter nor draws from its generator.
 ``predict_gaussians`` applies the same moment map to a Gaussian: position p + d, velocity d / dt, with
