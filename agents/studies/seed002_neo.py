@@ -78,8 +78,8 @@ def cases() -> list[Case]:
     return out
 
 
-def scenario(case: Case, fidelity: str) -> tuple[ScenarioConfig, int]:
-    """The case's scenario and the index of its waveform."""
+def scenario(case: Case, fidelity: str, likelihood: str | None = None) -> tuple[ScenarioConfig, int]:
+    """The case's scenario and the index of its waveform (``likelihood``: the PF's perception model, None: default)."""
     base = scenarios.get("indoor-monostatic")
     waveforms = tuple(
         dataclasses.replace(
@@ -90,9 +90,10 @@ def scenario(case: Case, fidelity: str) -> tuple[ScenarioConfig, int]:
     )
     index = [w.n_pulses for w in waveforms].index(case.n_pulses)
     walls = base.walls
-    tracker = dataclasses.replace(
-        base.tracker, kind="pf", pf=dataclasses.replace(base.tracker.pf, mobility=case.mobility)
-    )
+    pf = dataclasses.replace(base.tracker.pf, mobility=case.mobility)
+    if likelihood is not None:
+        pf = dataclasses.replace(pf, likelihood=likelihood)
+    tracker = dataclasses.replace(base.tracker, kind="pf", pf=pf)
     cfg = dataclasses.replace(
         base,
         waveforms=waveforms,
@@ -104,9 +105,9 @@ def scenario(case: Case, fidelity: str) -> tuple[ScenarioConfig, int]:
     return cfg, index
 
 
-def run_case(case: Case, fidelity: str, walks: int) -> tuple[np.ndarray, int]:
+def run_case(case: Case, fidelity: str, walks: int, likelihood: str | None = None) -> tuple[np.ndarray, int]:
     """The navigation errors [m] of every walk (outages as ``OUTAGE_M``) and the number of scans without estimate."""
-    cfg, w = scenario(case, fidelity)
+    cfg, w = scenario(case, fidelity, likelihood)
     sim = Simulator(cfg)
     plan = ScanPlan.all_listening(w, sim.sensor.n_tx, sim.sensor.n_rx)
     errors, missing = [], 0
@@ -131,6 +132,12 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--fidelity", choices=("parametric", "signal"), default="parametric")
     ap.add_argument("--walks", type=int, default=5)
+    ap.add_argument(
+        "--likelihood",
+        choices=("snr", "seed", "both"),
+        help="the PF's perception model: each detection's sigma(SNR) (snr, the default), the seed's fixed sigma_p "
+        "(seed), or both",
+    )
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--out", default="results/seed002-neo")
     args = ap.parse_args()
@@ -145,7 +152,10 @@ def main() -> None:
     table = [
         f"# Seed 002: NEO of the particle filter on indoor-monostatic ({args.fidelity} fidelity, {args.walks} walks)",
         "",
-        "Command: `python scripts/seed002_neo.py --fidelity " + f"{args.fidelity} --walks {args.walks} --out {out}`",
+        "Command: `python scripts/seed002_neo.py --fidelity "
+        + f"{args.fidelity} --walks {args.walks}"
+        + (f" --likelihood {args.likelihood}" if args.likelihood else "")
+        + f" --out {out}`",
         "",
         "| experiment | condition | case | 80 % point [m] | seed [m] | scans | scans without estimate |",
         "| --- | --- | --- | --- | --- | --- | --- |",
