@@ -1,6 +1,6 @@
-"""Seed 002's particle filter on indoor-monostatic: per-scan time beside the IMM tracker, and the seed's NEO figures.
+"""Seed 002's particle filter on indoor-monostatic: per-scan time beside the IMM tracker.
 
-Run: python benchmarks/pf_throughput.py [--episodes N] [--particles N] [--neo]
+Run: python benchmarks/pf_throughput.py [--episodes N] [--particles N]
 
 Throughput: detections are generated first (parametric sensing, every radar on the 128-pulse waveform, all
 listening); then ``step`` of each tracker is timed alone on the same detections: the PF (``TrackerConfig.kind =
@@ -8,11 +8,7 @@ listening); then ``step`` of each tracker is timed alone on the same detections:
 and its share printed), the PF with a constant Pd, and the VS-IMM / LMIPDA tracker of the scenario with the same
 sensor-model Pd.
 
-``--neo``: the 80 % point of the navigation error outage (seed 002 Figs. 2-4: the error below which 80 % of the
-scans fall, ``uwb_env.metrics.error_at_outage``) over ``--episodes`` random walks, beside the seed's figures: LOS
-(the same floor with walls transparent to the radio) and OLOS, N_pulse 32 / 128 / 512, T_int 2 / 4 / 6 ns (T = 0.2 s,
-SKDU), and SKDU against SDL at T = 0.1 / 0.2 / 0.5 s (OLOS). Each row with the default likelihood (each detection's
-three-region sigma(SNR)) and with the seed's own perception model (fixed sigma_p = 0.8 m).
+The seed's NEO figures (Figs. 2-4) are ``scripts/seed002_neo.py`` (``uwb_env.agents.studies.seed002_neo``).
 """
 
 from __future__ import annotations
@@ -24,37 +20,13 @@ import time
 import numpy as np
 
 from uwb_env import scenarios
-from uwb_env.config import MaterialConfig, PfConfig, ScenarioConfig
+from uwb_env.config import PfConfig, ScenarioConfig
 from uwb_env.metrics import error_at_outage
 from uwb_env.rng import RngStreams
 from uwb_env.scene import sample_truth
 from uwb_env.sensing.protocol import make_sensor
 from uwb_env.sensing.records import ScanPlan
 from uwb_env.tracking.registry import make_tracker
-
-
-def line_of_sight(cfg: ScenarioConfig) -> ScenarioConfig:
-    """The same floor and walks, walls transparent to the radio (seed 002's LOS comparison)."""
-    air = MaterialConfig("air", loss_db=0.0, excess_delay_s=0.0)
-    return dataclasses.replace(cfg, walls=tuple(dataclasses.replace(w, material=air) for w in cfg.walls))
-
-
-def with_integration_time(cfg: ScenarioConfig, t_int_s: float) -> ScenarioConfig:
-    """Every waveform's energy detector with integration time ``t_int_s``."""
-    waveforms = tuple(
-        dataclasses.replace(w, energy_detector=dataclasses.replace(w.energy_detector, integration_time_s=t_int_s))
-        for w in cfg.waveforms
-    )
-    return dataclasses.replace(cfg, waveforms=waveforms)
-
-
-def with_period(cfg: ScenarioConfig, period_s: float) -> ScenarioConfig:
-    """Scan period ``period_s``, as many scans as the 20 m walk at 1 m/s lasts."""
-    return dataclasses.replace(
-        cfg,
-        sensing=dataclasses.replace(cfg.sensing, scan_period_s=period_s),
-        n_scans=round(20.0 / period_s),
-    )
 
 
 def episodes(cfg: ScenarioConfig, n: int, waveform: int = 0):
@@ -126,77 +98,11 @@ def throughput(args: argparse.Namespace) -> None:
         )
 
 
-SEED_FIGS = {
-    ("los", "npulse"): {32: 0.8, 128: 1.0, 512: 1.2},
-    ("olos", "npulse"): {32: 2.0, 128: 2.3, 512: 2.3},
-    ("los", "tint"): {2: 0.6, 4: 0.9, 6: 1.5},
-    ("olos", "tint"): {2: 2.3, 4: 2.5, 6: 2.9},
-}
-
-
-def neo(args: argparse.Namespace) -> None:
-    base = scenarios.get("indoor-monostatic")
-    likelihoods = (
-        ("snr", PfConfig(n_particles=args.particles)),
-        ("seed", PfConfig(n_particles=args.particles, likelihood="seed")),
-    )
-    print(
-        f"80 % point of the NEO [m], {args.episodes} walks each; "
-        "seed 002's figure | ours (snr likelihood, seed's sigma_p)"
-    )
-    waveform_of = {128: 0, 32: 1, 512: 2}
-    for env in ("los", "olos"):
-        cfg0 = line_of_sight(base) if env == "los" else base
-        for npulse in (32, 128, 512):
-            sensor, eps = episodes(cfg0, args.episodes, waveform_of[npulse])
-            ours = []
-            for _, pf in likelihoods:
-                tc = dataclasses.replace(base.tracker, kind="pf", pf=pf)
-                ours.append(error_at_outage(run(cfg0, tc, sensor, eps, waveform_of[npulse], confirmed=False)[0]))
-            print(
-                f"  Fig. 2 {env:4s} N_pulse {npulse:3d}: {SEED_FIGS[(env, 'npulse')][npulse]:.1f} | "
-                f"{ours[0]:.2f}, {ours[1]:.2f}"
-            )
-        for tint in (2, 4, 6):
-            cfg = with_integration_time(cfg0, tint * 1e-9)
-            sensor, eps = episodes(cfg, args.episodes)
-            ours = []
-            for _, pf in likelihoods:
-                tc = dataclasses.replace(base.tracker, kind="pf", pf=pf)
-                ours.append(error_at_outage(run(cfg, tc, sensor, eps, confirmed=False)[0]))
-            print(
-                f"  Fig. 3 {env:4s} T_int {tint} ns:     {SEED_FIGS[(env, 'tint')][tint]:.1f} | "
-                f"{ours[0]:.2f}, {ours[1]:.2f}"
-            )
-    seed_fig4 = {
-        (0.5, "skdu"): "< 2.7",
-        (0.5, "sdl"): "~ 5",
-        (0.2, "skdu"): "~ 2.7",
-        (0.2, "sdl"): "~ 2.7",
-        (0.1, "skdu"): "> SDL",
-        (0.1, "sdl"): "best",
-    }
-    for period in (0.5, 0.2, 0.1):
-        cfg = with_period(base, period)
-        sensor, eps = episodes(cfg, args.episodes)
-        for model in ("skdu", "sdl"):
-            ours = []
-            for _, pf in likelihoods:
-                tc = dataclasses.replace(base.tracker, kind="pf", pf=dataclasses.replace(pf, mobility=model))
-                ours.append(error_at_outage(run(cfg, tc, sensor, eps, confirmed=False)[0]))
-            print(
-                f"  Fig. 4 olos T {period} s {model:4s}:   {seed_fig4[(period, model)]:5s} | "
-                f"{ours[0]:.2f}, {ours[1]:.2f}"
-            )
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--episodes", type=int, default=5)
     ap.add_argument("--particles", type=int, default=PfConfig().n_particles)
-    ap.add_argument("--neo", action="store_true", help="the seed's Figs. 2-4 80 %% points instead of the timing")
-    args = ap.parse_args()
-    neo(args) if args.neo else throughput(args)
+    throughput(ap.parse_args())
 
 
 if __name__ == "__main__":

@@ -108,8 +108,9 @@ d ~ (E[d], Cov[d]) of the model (SDL with a full window: E[d] = the Gaussian's m
 velocity held over the step, Cov[d] = C_v dt^2 + sigma_m^2 I). The lookahead's expected update is that of
 these Gaussians under the UKF (``filter = "ukf"``, ``tracking.expectation``).
 
-Against the seed (``python benchmarks/pf_throughput.py --neo``: 80 % point of the NEO over 5 random 20 m walks on
-``indoor-monostatic``, T = 0.2 s, SKDU; LOS = the same floor with walls transparent to the radio). With the seed's
+Against the seed (``python scripts/seed002_neo.py --walks 5 [--likelihood seed]``: 80 % point of the NEO over 5
+random 20 m walks on ``indoor-monostatic``, T = 0.2 s, SKDU; LOS = the same floor with walls transparent to the
+radio). With the seed's
 own perception model (likelihood "seed") the LOS Fig. 2 is reproduced, trend included: 0.72 / 1.03 / 1.32 m for
 N_pulse 32 / 128 / 512 against the seed's 0.8 / 1.0 / 1.2 m; Fig. 3's T_int trend is flatter (0.96 / 1.03 /
 1.09 m against 0.6 / 0.9 / 1.5 m). Behind walls (OLOS) the fixed sigma_p loses the person (4.7-5.7 m against
