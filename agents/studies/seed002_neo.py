@@ -147,7 +147,8 @@ def main() -> None:
     out.mkdir(parents=True, exist_ok=True)
     all_cases = cases()
     with ProcessPoolExecutor(args.workers) as pool:
-        results = list(pool.map(run_case, all_cases, [args.fidelity] * len(all_cases), [args.walks] * len(all_cases)))
+        n = len(all_cases)
+        results = list(pool.map(run_case, all_cases, [args.fidelity] * n, [args.walks] * n, [args.likelihood] * n))
     rows = ["experiment,condition,label," + ",".join(f"{t:.2f}" for t in THRESHOLDS)]
     table = [
         f"# Seed 002: NEO of the particle filter on indoor-monostatic ({args.fidelity} fidelity, {args.walks} walks)",
