@@ -48,19 +48,24 @@ def best_action(costs: np.ndarray, env: gym.Env) -> int:
 
 
 class RoundRobin:
-    """Cycles through the actions 0, 1, ..., n - 1, 0, ... (seed 003's open loop)."""
+    """Cycles through the valid actions in order, 0, 1, ..., n - 1, 0, ... when all are (seed 003's open loop).
+
+    The valid actions are those of ``action_masks()``: a plan that needs a receiver out of service or an unavailable
+    waveform is skipped (the env refuses it).
+    """
 
     name = "round-robin"
 
     def reset(self, seed: int | None = None) -> None:
-        """Start again at action 0."""
+        """Start again at the first valid action."""
         self._k = 0
 
     def act(self, obs: Any, env: gym.Env) -> int:
-        """The next action of the cycle."""
-        a = self._k % _n_actions(env)
+        """The next valid action of the cycle."""
+        _n_actions(env)  # a Discrete space, checked
+        valid = np.flatnonzero(env.unwrapped.action_masks())
         self._k += 1
-        return a
+        return int(valid[(self._k - 1) % valid.size])
 
 
 class Fixed:

@@ -191,3 +191,18 @@ def test_compiled_track_slots_equal_the_numpy_reference(n):
         np.testing.assert_array_equal(got[: order.size, 1], existence[order])
         np.testing.assert_array_equal(got[: order.size, 2], confirmed[order])
     assert not got[min(n, 8) :].any()
+
+
+def test_round_robin_cycles_over_the_valid_plans_only():
+    """With a receiver out of service, round-robin skips the plans that need it (the env would refuse them); with
+    every plan valid it is the plain cycle 0, 1, ..., n - 1."""
+    env = gym.make("uwb_env/IndoorSensorSubset-v0", out_of_service_rx=("rx1",))
+    sched = RoundRobin()
+    env.reset(seed=0)
+    sched.reset(0)
+    valid = np.flatnonzero(env.unwrapped.action_masks())
+    played = [sched.act(None, env) for _ in range(2 * valid.size)]
+    assert played == [*valid.tolist(), *valid.tolist()]
+    plain = gym.make("uwb_env/IndoorSensorSubset-v0")
+    sched.reset(0)
+    assert [sched.act(None, plain) for _ in range(25)] == [k % 20 for k in range(25)]

@@ -444,24 +444,6 @@ def load_rllib_scheduler(run: str | Path) -> RLlibPolicyScheduler:
 
 
 # --------------------------------------------------------------------------------------------- evaluation
-class ValidRoundRobin:
-    """Round-robin over the valid actions (``action_masks()``).
-
-    The scheduler ``round-robin`` on an env without invalid actions; on one with some it plays where ``round-robin``
-    would step a masked action (and the env raise).
-    """
-
-    name = "round-robin"
-
-    def reset(self, seed: int | None = None) -> None:  # noqa: D102 - the protocol
-        self._k = 0
-
-    def act(self, obs: Any, env: gym.Env) -> int:  # noqa: D102 - the protocol
-        valid = np.flatnonzero(env.unwrapped.action_masks())
-        self._k += 1
-        return int(valid[(self._k - 1) % valid.size])
-
-
 class RLlibEvaluator:
     """The SB3 engine's evaluation: the policy on fixed seeds next to myopic and round-robin, rows of ``eval.csv``."""
 
@@ -471,7 +453,7 @@ class RLlibEvaluator:
         self.path = path
         self.baselines: dict[str, EvalResult] = {}
         for name in ("myopic", "round-robin"):
-            sched = make_scheduler(name) if name == "myopic" else ValidRoundRobin()
+            sched = make_scheduler(name)
             sched.reset(0)
             self.baselines[name] = evaluate_policy_on_seeds(sched.act, self.env, self.seeds)
 
