@@ -145,7 +145,7 @@ from uwb_env.config import PfConfig, TrackerConfig
 from uwb_env.constants import SPEED_OF_LIGHT_MPS
 from uwb_env.scene.layout import SceneLayout
 from uwb_env.sensing.records import Detections
-from uwb_env.tracking.expectation import ReductionModel, gaussian_expected_update
+from uwb_env.tracking.expectation import GaussianLookahead
 from uwb_env.tracking.trackset import Prediction, TrackSet
 from uwb_env.typing import FloatArray
 
@@ -460,7 +460,7 @@ def _predict_moments(
     return xo.reshape(n, 6), Po
 
 
-class ParticleFilterTracker:
+class ParticleFilterTracker(GaussianLookahead):
     """Seed 002's single-target particle filter behind the tracker seam (``uwb_env.tracking.protocol``).
 
     Args:
@@ -710,21 +710,3 @@ class ParticleFilterTracker:
             d_mean = np.broadcast_to(d_mean, (x.shape[0], 2))
         xo, Po = _predict_moments(x, np.asarray(pred.P, float), d_mean, d_cov, dt)
         return Prediction(x=xo, P=Po, mu=pred.mu, active=pred.active)
-
-    def expected_update(
-        self,
-        Pa: FloatArray,
-        x: FloatArray,
-        P: FloatArray,
-        names: tuple[str, ...],
-        tx_pos: FloatArray,
-        rx_pos: FloatArray,
-        R: FloatArray,
-        pd: FloatArray,
-        reduction: object,
-        rho: FloatArray,
-        period: FloatArray,
-    ) -> FloatArray:
-        """One pair's expected update of the moment-matched Gaussians (``expectation.gaussian_expected_update``)."""
-        model: ReductionModel = reduction  # type: ignore[assignment]
-        return gaussian_expected_update("ukf", Pa, x, P, names, tx_pos, rx_pos, R, pd, model, rho, period)
