@@ -181,4 +181,3 @@ def test_campaign_schemes_name_the_tracker(tmp_path):
         header = (tmp_path / "runs" / f"myopic__{kind}" / "seed-0.csv").read_text().splitlines()[0].split(",")
         env = gym.make("uwb_env/IndoorSensorSubset-v0", tracker=kind).unwrapped
         assert header[-len(env.sim.tracker.model_names) :] == [f"mu:{m}" for m in env.sim.tracker.model_names]
-
