@@ -419,3 +419,15 @@ def test_simulator_and_lookahead_run_the_phd_through_the_registry() -> None:
     plans = [ScanPlan.all_listening(0, 1, 6), ScanPlan(np.zeros(1, np.int64), np.array([1, 0, 1, 0, 1, 0], bool))]
     costs = lookahead_costs(sim.sensor, sim.tracker, plans, sim.k * 0.1 + 0.1, sim.k + 1)
     assert np.all(costs > 0) and costs[1] > costs[0]
+
+
+def test_occupied_cells_hand_each_position_its_cell_centre() -> None:
+    """tracking.pd_grid: the centre of each position's cell, once per occupied cell."""
+    from uwb_env.tracking.pd_grid import occupied_cells
+
+    pos = np.array([[0.10, 0.10], [0.20, 0.05], [0.30, 0.10], [-0.10, 0.60], [0.24, 0.24]])
+    centres, inverse = occupied_cells(pos, np.zeros(2), 0.25)
+    np.testing.assert_allclose(centres[inverse], [[0.125, 0.125], [0.125, 0.125], [0.375, 0.125], [-0.125, 0.625],
+                                                  [0.125, 0.125]])  # fmt: skip
+    assert centres.shape == (3, 2)
+    assert np.all(np.abs(centres[inverse] - pos) <= 0.125 + 1e-12)

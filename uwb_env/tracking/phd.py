@@ -76,6 +76,7 @@ from uwb_env.scene.layout import SceneLayout
 from uwb_env.scene.motion_models import model_transition, process_noise
 from uwb_env.sensing.records import Detections
 from uwb_env.tracking.expectation import GaussianLookahead
+from uwb_env.tracking.pd_grid import occupied_cells
 from uwb_env.tracking.protocol import Prediction
 from uwb_env.tracking.tracker import ZERO_ACCELERATION_STD, TrackSet
 from uwb_env.typing import BoolArray, FloatArray, IntArray
@@ -353,12 +354,8 @@ class PhdTracker(GaussianLookahead):
         g = self.phd.pd_grid_m
         if g == 0.0:
             return np.asarray(self.pd_model(0, -1, pos), dtype=float)
-        origin = self.area[[0, 2]]
-        cell = np.clip(np.floor((pos - origin) / g), -(2**20), 2**20).astype(np.int64) + 2**20
-        key = cell[:, 0] * 2**22 + cell[:, 1]
-        uniq, inv = np.unique(key, return_inverse=True)
-        centres = origin + (np.stack([uniq // 2**22, uniq % 2**22], axis=-1) - 2**20 + 0.5) * g
-        return np.asarray(self.pd_model(0, -1, centres), dtype=float)[inv.reshape(-1)]
+        centres, inverse = occupied_cells(pos, self.area[[0, 2]], g)
+        return np.asarray(self.pd_model(0, -1, centres), dtype=float)[inverse]
 
     def _predict_particles(self, dt: float) -> None:
         """Prediction of the particles (module docstring, step 2)."""
