@@ -617,6 +617,71 @@ class ChirpSignalConfig:
 
 
 @dataclass(frozen=True, slots=True)
+class BodyModelConfig:
+    """The extended person of the impulse signal path (``SignalConfig.target_model = "extended"``; ``scene.extended``).
+
+    A walking person as six scattering centres seen from above (the simulation is 2-D): torso, head, two arms, two
+    legs, each a vertical body segment whose horizontal cross-section is an ellipse; a centre's echo comes from the
+    point of that ellipse whose normal bisects the directions to the pair's transmitter and receiver (geometric
+    optics), at its own bistatic delay, with its own path loss, carrier phase and per-scan Swerling factor.
+
+    Geometry (body frame: x along the heading = the velocity's direction, y to the left): the torso an ellipse
+    ``torso_depth_m`` x ``torso_width_m`` (0.25 m x 0.40 m, an adult's chest), the head a circle of
+    ``head_radius_m`` above its centre; the arms circles of ``arm_radius_m`` beside the torso (y = +-(width / 2 +
+    radius)), the legs circles of ``leg_radius_m`` at the hip joints (y = +-``hip_half_width_m``). Gait (Boulic,
+    Magnenat-Thalmann & Thalmann 1990, as used by V. C. Chen, *The Micro-Doppler Effect in Radar*, 2011, ch. 5): the
+    relative velocity RV = v / H_t (H_t = ``hip_height_m``, the thigh height; RV clipped to Boulic's 0-2.3), a cycle
+    (two steps) of D_c = 1.346 / sqrt(RV) s and stride v D_c = 1.346 sqrt(v H_t); the legs swing through the angle
+    theta with sin theta = stride / (4 H_t) (feet a step, half a stride, apart at double support), each leg's
+    scattering centre (its centroid, half-way down) moving +-(H_t / 2) sin theta along the heading; the arms swing
+    through the same angle about the shoulder, their centroids +-(``arm_length_m`` / 2) sin theta, each arm in
+    anti-phase with its leg. A standing person (RV = 0) does not swing.
+
+    RCS shares (relative, normalised to sum 1 over the six centres; times the target's mean RCS): ``torso_share``,
+    ``head_share``, and per limb ``arm_share``, ``leg_share``. Their defaults are the high-frequency RCS of Chen's
+    ellipsoid body segments (sigma = pi a^2 b^2 c^2 / (a^2 cos^2 phi + b^2 sin^2 phi)^2 at horizontal incidence;
+    segment lengths of a 1.8 m adult): torso seen from the front 0.55 m^2, a leg (thigh and shank) 0.30 m^2, an arm
+    (upper arm and forearm) 0.14 m^2, the head 0.03 m^2 -> 0.38 / 0.20 / 0.10 / 0.02. An arm whose line of sight to
+    the transmitter or the receiver crosses the torso is attenuated by ``occlusion_loss_db`` per blocked leg (legs and
+    head, below and above the torso, are never hidden by it).
+    """
+
+    torso_depth_m: float = 0.25
+    torso_width_m: float = 0.40
+    head_radius_m: float = 0.09
+    arm_radius_m: float = 0.045
+    leg_radius_m: float = 0.06
+    hip_half_width_m: float = 0.10
+    hip_height_m: float = 0.95
+    arm_length_m: float = 0.60
+    torso_share: float = 0.38
+    head_share: float = 0.02
+    arm_share: float = 0.10
+    leg_share: float = 0.20
+    occlusion_loss_db: float = 20.0
+
+    def __post_init__(self) -> None:
+        for name in ("torso_depth_m", "torso_width_m", "hip_height_m"):
+            _positive("BodyModelConfig", name, getattr(self, name))
+        for name in (
+            "head_radius_m",
+            "arm_radius_m",
+            "leg_radius_m",
+            "hip_half_width_m",
+            "arm_length_m",
+            "torso_share",
+            "head_share",
+            "arm_share",
+            "leg_share",
+            "occlusion_loss_db",
+        ):
+            _non_negative("BodyModelConfig", name, getattr(self, name))
+        total = self.torso_share + self.head_share + 2.0 * (self.arm_share + self.leg_share)
+        if not total > 0.0:
+            _fail("BodyModelConfig", "torso_share", self.torso_share, "shares with a positive sum")
+
+
+@dataclass(frozen=True, slots=True)
 class SignalConfig:
     """Signal-level fidelity (seed 000 sections IV-V; ``uwb_env.sensing.signal``, ``detection``, ``localization``).
 
@@ -664,7 +729,9 @@ class SignalConfig:
     and hands the tracker each pair's bistatic ranges (variance sigma_r^2, ``false_ranges_per_scan`` false ones per
     scan and pair, spread over the range window): for sparse networks where few receivers see a target at once. The
     defaults are measured on indoor-rsn (``scripts/calibrate_parametric.py``). ``chirp`` holds the knobs of the
-    chirp pulse-train signal path (:class:`ChirpSignalConfig`).
+    chirp pulse-train signal path (:class:`ChirpSignalConfig`). ``target_model``: ``point`` synthesises each target as
+    one echo at its bistatic delay (the default), ``extended`` as the scattering centres of a walking person
+    (:class:`BodyModelConfig` ``body``; impulse signal path only).
     """
 
     sample_rate_hz: float = 16.4e9
@@ -713,6 +780,8 @@ class SignalConfig:
     false_ranges_per_scan: float = 3.0
     false_position_density_per_m2: float = 0.004
     chirp: ChirpSignalConfig = field(default_factory=ChirpSignalConfig)
+    target_model: Literal["point", "extended"] = "point"
+    body: BodyModelConfig = field(default_factory=BodyModelConfig)
 
     def __post_init__(self) -> None:
         for name in (
@@ -766,6 +835,8 @@ class SignalConfig:
         if self.direct_path_offset_s * self.sample_rate_hz >= self.n_samples:
             _fail("SignalConfig", "direct_path_offset_s", self.direct_path_offset_s, "inside the scan window")
         _instance("SignalConfig", "chirp", self.chirp, ChirpSignalConfig, "a ChirpSignalConfig")
+        _choice("SignalConfig", "target_model", self.target_model, ("point", "extended"))
+        _instance("SignalConfig", "body", self.body, BodyModelConfig, "a BodyModelConfig")
 
 
 @dataclass(frozen=True, slots=True)

@@ -56,6 +56,7 @@ from uwb_env.detection.energy_detector import (
 )
 from uwb_env.localization import locate
 from uwb_env.rng import RngStreams
+from uwb_env.scene import extended
 from uwb_env.scene.truth import Truth
 from uwb_env.sensing.parametric import EpisodeGeometry, ParametricSensor
 from uwb_env.sensing.protocol import register_sensor
@@ -91,6 +92,9 @@ class SignalEpisode:
     reference_toa: FloatArray  # (W, P) direct-path ToA of the references [samples]
     reference_peak: FloatArray  # (W, P) direct-path peak of the references [samples] (time origin of the ranges)
     ed_uniform: FloatArray | None = None  # (P, bins) the scan's draws of the ED's pulse-accumulation noise, or None
+    body_heading: FloatArray | None = None  # (S, K) extended targets: heading [rad] of every scan, or None
+    body_speed: FloatArray | None = None  # (S, K) extended targets: speed [m/s]
+    body_phase: FloatArray | None = None  # (S, K) extended targets: gait phase [rad]
 
 
 @dataclass(frozen=True, slots=True)
@@ -249,7 +253,7 @@ class SignalSensor(ParametricModelHooks):
         er = np.sqrt(2.0 * self.dp_snr)[..., None] * background[None] + noise
         env = square_law_envelope(er, self.lpf)
         toa = direct_path_toa(env, sig.dp_threshold_ratio, self.jump_back)
-        return SignalEpisode(
+        episode = SignalEpisode(
             geom=self.model._cached_geometry(truth),
             truth=truth,
             rngs=rngs,
@@ -259,6 +263,15 @@ class SignalSensor(ParametricModelHooks):
             reference_toa=toa,
             reference_peak=self._peak_near(env, toa),
         )
+        if sig.target_model == "extended":
+            # gait of every scan: heading from the velocity, phase integrated from the speed (Boulic's cycle), a
+            # random initial phase per target from the RCS stream (drawn once per episode, whatever the plans)
+            vel = truth.states[..., [1, 3]]
+            episode.body_heading = extended.headings(vel)
+            episode.body_speed = np.linalg.norm(vel, axis=-1)
+            phase0 = rngs.rcs.uniform(0.0, 2.0 * math.pi, truth.states.shape[1])
+            episode.body_phase = extended.gait_phase(episode.body_speed, truth.times_s, sig.body, phase0)
+        return episode
 
     def _peak_near(self, env: FloatArray, toa: FloatArray) -> FloatArray:
         """The envelope's peak after the direct-path crossing ``toa``, parabola-refined [samples]."""
@@ -289,6 +302,12 @@ class SignalSensor(ParametricModelHooks):
         noise = rng.signal.standard_normal((P, sig.n_samples))
         if sig.toa_estimator == "energy-detector" and sig.ed_pulse_integration == "noncoherent":
             episode.ed_uniform = rng.signal.uniform(0.0, 1.0, (P, self.ed_n_bins))
+        if sig.target_model == "extended":  # per centre: Swerling factor (every pair) and carrier phase
+            C = len(extended.CENTRES)
+            body_fluct = rcs_fluctuation(
+                self.model.swerling, (self.n_tx, self.n_rx, C), rng.rcs, self.model._swerling_w
+            )
+            body_phase = rng.signal.uniform(0.0, 2.0 * math.pi, (P, K, C))
         active = np.flatnonzero(plan.active_rx[self.pairs[:, 1]])
         w = plan.waveform[self.pairs[active, 0]]
         t_i, r_i = self.pairs[active, 0], self.pairs[active, 1]
@@ -306,12 +325,54 @@ class SignalSensor(ParametricModelHooks):
         background = np.sqrt(2.0 * self.dp_snr[w, active])[:, None] * np.einsum(
             "pl,pln->pn", gain, self.path_waveforms[active]
         )
+        if sig.target_model == "extended":
+            excess, snr, echo_phase = self._body_echoes(episode, k, active, w, body_fluct, body_phase)
+            return self._compose(background, excess, snr, echo_phase, jitter[active], noise[active]), active
         # Echoes: integrated SNR = radar constant x unit SNR x RCS fluctuation; delay relative to the direct path.
         snr = self.model.radar_constant[w, t_i, r_i][:, None] * geom.unit_snr[k, t_i, r_i] * fluct[t_i, r_i]
         snr = np.where(alive[None], snr, 0.0)
         excess = (geom.bistatic_range[k, t_i, r_i] - self.baseline[active][:, None]) / SPEED_OF_LIGHT_MPS
         excess = np.where(alive[None], excess, -1.0)  # dead targets: far before the window (and zero SNR)
         return self._compose(background, excess, snr, phase[active], jitter[active], noise[active]), active
+
+    def _body_echoes(
+        self,
+        episode: SignalEpisode,
+        k: int,
+        active: IntArray,
+        w: IntArray,
+        body_fluct: FloatArray,
+        body_phase: FloatArray,
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """The extended targets' echoes of scan ``k`` on the active pairs: ``(A, K x 6)`` delays [s], SNRs, phases.
+
+        Each scattering centre (``scene.extended``) at its specular point for the pair: bistatic range = the body
+        centre's (walls' excess delay included) plus the centre's extra path; SNR = radar constant x the body
+        centre's unit SNR (mean RCS, walls, beam) x (l_t l_r / l_t,c l_r,c)^rho x the centre's RCS share x its
+        Swerling factor ``body_fluct`` (T, R, 6, K) x its torso occlusion; carrier phase ``body_phase`` (P, K, 6).
+        """
+        body, geom, truth = self.sig.body, episode.geom, episode.truth
+        t_i, r_i = self.pairs[active, 0], self.pairs[active, 1]
+        tx, rx = self.layout.tx_pos[t_i], self.layout.rx_pos[r_i]  # (A, 2)
+        alive = truth.alive[k]
+        pos = truth.states[k][:, [0, 2]]
+        heading = episode.body_heading[k]
+        offsets = extended.centre_offsets(episode.body_phase[k], episode.body_speed[k], body)  # (K, 6, 2)
+        pts = extended.specular_points(pos, heading, offsets, tx, rx, body)  # (A, K, 6, 2)
+        lt = np.maximum(np.linalg.norm(pts - tx[:, None, None], axis=-1), 1e-6)
+        lr = np.maximum(np.linalg.norm(pts - rx[:, None, None], axis=-1), 1e-6)
+        lt0 = np.maximum(np.linalg.norm(pos[None] - tx[:, None], axis=-1), 1e-6)[..., None]  # (A, K, 1)
+        lr0 = np.maximum(np.linalg.norm(pos[None] - rx[:, None], axis=-1), 1e-6)[..., None]
+        rng_m = geom.bistatic_range[k, t_i, r_i][..., None] + (lt + lr) - (lt0 + lr0)
+        gain = (lt0 * lr0 / (lt * lr)) ** self.cfg.channel.path_loss_exponent * extended.shares(body)
+        gain = gain * 10.0 ** (-extended.occlusion_loss_db(pos, heading, offsets, tx, rx, body) / 10.0)
+        unit = self.model.radar_constant[w, t_i, r_i][:, None] * geom.unit_snr[k, t_i, r_i]  # (A, K)
+        snr = unit[..., None] * gain * np.moveaxis(body_fluct[t_i, r_i], -1, -2)  # (A, K, 6)
+        snr = np.where(alive[None, :, None], snr, 0.0)
+        excess = (rng_m - self.baseline[active][:, None, None]) / SPEED_OF_LIGHT_MPS
+        excess = np.where(alive[None, :, None], excess, -1.0)
+        A = active.size
+        return excess.reshape(A, -1), snr.reshape(A, -1), body_phase[active].reshape(A, -1)
 
     @staticmethod
     def _background_gain(amplitude: FloatArray, fluctuation: FloatArray) -> FloatArray:
