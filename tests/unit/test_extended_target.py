@@ -222,5 +222,19 @@ def test_rng_streams_unchanged_for_the_truth():
     a.reset(2)
     b.reset(2)
     np.testing.assert_array_equal(a.truth.states, b.truth.states)
-    assert isinstance(RngStreams.from_seed(2), RngStreams)
-    assert isinstance(b.truth, Truth)
+
+
+def test_a_target_born_late_has_finite_echoes():
+    """States are undefined (NaN here) before birth: the gait holds still there and the scans stay finite."""
+    sim = _signal("indoor-rsn", "extended")
+    sim.reset(1)
+    states, alive = sim.truth.states.copy(), sim.truth.alive.copy()
+    states[:5], alive[:5] = np.nan, False
+    truth = Truth(sim.truth.times_s, states, alive)
+    ep = sim.sensor.new_episode(truth, RngStreams.from_seed(1))
+    np.testing.assert_array_equal(ep.body_phase[:6, 0], ep.body_phase[0, 0])
+    assert ep.body_phase[6, 0] > ep.body_phase[5, 0]
+    plan = ScanPlan.all_listening(0, sim.sensor.n_tx, sim.sensor.n_rx)
+    for k in range(8):
+        scans, _ = sim.sensor.synthesise(ep, k, plan)
+        assert np.isfinite(scans).all()

@@ -5,7 +5,9 @@ One scan, for the pairs the plan activates:
 1. synthesis (:mod:`uwb_env.sensing.signal.synthesis`): the room's static background (direct path and seed 002's
    exponential multipath, fixed by ``signal.background_seed``) with slowly fluctuating amplitudes, shadowed where a
    target stands on a path's legs; the targets' echoes at their bistatic delays with radar-equation amplitudes,
-   Swerling RCS and random carrier phase; the scan's timing jitter; unit AWGN (after pulse integration);
+   Swerling RCS and random carrier phase (``signal.target_model = "extended"``: a walking person's six scattering
+   centres, each at its own delay with its own share of the RCS, Swerling factor and phase, :mod:`uwb_env.scene.
+   extended`); the scan's timing jitter; unit AWGN (after pulse integration);
 2. in-sensor chain (:mod:`uwb_env.detection`): envelope, direct-path ToA, alignment onto the reference (empty room or
    exponential-averaging background), rectified difference, blind zone, CFAR, 1-D clustering -> ToAs and weights;
    or, with ``signal.toa_estimator = "energy-detector"``, seed 002's energy detector on the coherent difference
@@ -266,7 +268,7 @@ class SignalSensor(ParametricModelHooks):
         if sig.target_model == "extended":
             # gait of every scan: heading from the velocity, phase integrated from the speed (Boulic's cycle), a
             # random initial phase per target from the RCS stream (drawn once per episode, whatever the plans)
-            vel = truth.states[..., [1, 3]]
+            vel = np.where(truth.alive[..., None], np.nan_to_num(truth.states[..., [1, 3]]), 0.0)  # undefined if dead
             episode.body_heading = extended.headings(vel)
             episode.body_speed = np.linalg.norm(vel, axis=-1)
             phase0 = rngs.rcs.uniform(0.0, 2.0 * math.pi, truth.states.shape[1])
