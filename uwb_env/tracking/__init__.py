@@ -1,4 +1,7 @@
-"""Tracking: motion models, batched UKF/EKF kernels, (VS-)IMM, LMIPDA, initiation, the Tracker."""
+"""Tracking: the tracker seam (protocol, registry by ``TrackerConfig.kind``) and seed 003's VS-IMM / LMIPDA ``Tracker``.
+
+Seed 000's particle PHD (``phd``) and seed 002's particle filter (``pf``) load through the registry.
+"""
 
 from uwb_env.scene.motion_models import ct_transition, nca_transition, ncv_transition, process_noise
 from uwb_env.tracking import compiled
@@ -22,11 +25,15 @@ from uwb_env.tracking.kernels import (
 )
 from uwb_env.tracking.lmipda import lmipda, predict_existence
 from uwb_env.tracking.measurement import measure
+from uwb_env.tracking.protocol import MultiTargetTracker, Prediction
+from uwb_env.tracking.registry import make_tracker
 from uwb_env.tracking.tracker import Tracker, TrackSet
 
 __all__ = [
     "SEED003_MODELS",
     "SEED003_TRANSITION",
+    "MultiTargetTracker",
+    "Prediction",
     "TrackSet",
     "Tracker",
     "UnscentedWeights",
@@ -39,6 +46,7 @@ __all__ = [
     "joseph_update",
     "kf_predict",
     "lmipda",
+    "make_tracker",
     "measure",
     "mixture_reduce",
     "nca_transition",
