@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import hashlib
 import math
 
 import numpy as np
@@ -106,23 +105,25 @@ def _signal(name: str, model: str) -> Simulator:
 
 
 @pytest.mark.parametrize(
-    ("name", "digest"),
+    ("name", "energy", "weighted", "active"),
     [
-        ("indoor-rsn", "ba5380268e3e29fbae954be0a39d5463cbfb2eed2453b2bdea886d1fab7a3f24"),
-        ("indoor-monostatic", "339a50f71f484e089a9de8b80064dd7909b5b2a3e0584ecd9d40ab2c46ea9259"),
+        ("indoor-rsn", 1288773719.547798, 2040519088.9619768, 180),
+        ("indoor-monostatic", 3726882390.3699036, 4942184120.949741, 540),
     ],
 )
-def test_point_model_is_bit_identical_to_before(name, digest):
-    """The point path's scans (12 scans, seed 7) hash as they did before the extended model existed."""
+def test_point_model_is_unchanged(name, energy, weighted, active):
+    """The point path's scans (12 scans, seed 7) as before the extended model existed: their energy and a
+    delay-weighted magnitude sum, recorded when a SHA-256 of the scans still matched the pre-extended code's, to
+    1e-9 relative (a bit hash is not portable: numpy's vectorised exp / sin differ in the last bit between CPUs)."""
     sim = _signal(name, "point")
     sim.reset(7)
     plan = ScanPlan.all_listening(0, sim.sensor.n_tx, sim.sensor.n_rx)
-    h = hashlib.sha256()
+    sums = np.zeros(3)
     for k in range(12):
-        scans, active = sim.sensor.synthesise(sim.episode, k, plan)
-        h.update(scans.tobytes())
-        h.update(active.tobytes())
-    assert h.hexdigest() == digest
+        scans, on = sim.sensor.synthesise(sim.episode, k, plan)
+        sums += [np.sum(scans.astype(float) ** 2), np.sum(np.abs(scans) * np.arange(scans.shape[-1])), on.sum()]
+    np.testing.assert_allclose(sums[:2], [energy, weighted], rtol=1e-9)
+    assert sums[2] == active
     assert sim.episode.body_phase is None
 
 
