@@ -35,11 +35,6 @@ def import_ray() -> Any:
     return ray
 
 
-def _play(campaign: Campaign, scheme: str, seed: int) -> tuple[Any, tuple[str, ...]]:
-    """A Ray task's body: one run's record and column names."""
-    return play_scheme(campaign, scheme, seed)
-
-
 def run_on_ray(
     campaign: Campaign, out: pathlib.Path, jobs: list[tuple[str, int]], bar: Any, workers: int, address: str | None
 ) -> None:
@@ -56,7 +51,7 @@ def run_on_ray(
             log_to_driver=False,
             configure_logging=False,
         )
-    task = ray.remote(num_cpus=1, max_retries=0)(_play)
+    task = ray.remote(num_cpus=1, max_retries=0)(play_scheme)  # one run: its record and column names
     campaign_ref = ray.put(campaign)
     which = {task.remote(campaign_ref, s, seed): (s, seed) for s, seed in jobs}
     pending = list(which)

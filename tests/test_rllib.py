@@ -22,11 +22,11 @@ import ray
 import uwb_env  # noqa: F401
 from uwb_env.agents.cli import train_main
 from uwb_env.agents.rl.rllib_engine import (
-    EVAL_COLUMNS,
     RLlibTrainConfig,
     rllib_checkpoints,
     train_rllib,
 )
+from uwb_env.agents.rl.training import EVAL_COLUMNS
 from uwb_env.agents.schedulers import check_scheduler_name, make_scheduler
 from uwb_env.envs import ENV_IDS
 

@@ -46,30 +46,19 @@ import yaml
 
 import uwb_env  # noqa: F401  (registers the env ids)
 from uwb_env.agents.rl.training import (
-    EVAL_SEED0,
-    EvalResult,
+    EvalTable,
     _read_yaml,
     check_env,
-    evaluate_policy_on_seeds,
+    check_run_folder,
     keep_rows_up_to,
     load_preset,
 )
-from uwb_env.agents.schedulers import make_scheduler
 from uwb_env.agents.storage import FolderLock, atomic_write_text, move_aside
 from uwb_env.envs import ENV_IDS
 
 RLLIB_ALGORITHMS = ("dqn", "ppo")
 _CHECKPOINT = re.compile(r"^iter_(\d+)$")
 LEARNER_MODULE = Path("learner_group", "learner", "rl_module", "default_policy")  # inside a checkpoint
-EVAL_COLUMNS = [
-    "timesteps",
-    "return",
-    "trace_m2",
-    "myopic_return",
-    "myopic_trace_m2",
-    "round_robin_return",
-    "round_robin_trace_m2",
-]  # fmt: skip  (the SB3 engine's eval.csv)
 PROGRESS_COLUMNS = ["training_iteration", "timesteps", "episode_return_mean", "episode_len_mean", "loss", "time_s"]
 MODEL_KEYS = ("fcnet_hiddens", "fcnet_activation")  # --hyper keys that go to the module's model_config
 COMMON_KEYS = ("eval_episodes",)
@@ -444,33 +433,6 @@ def load_rllib_scheduler(run: str | Path) -> RLlibPolicyScheduler:
 
 
 # --------------------------------------------------------------------------------------------- evaluation
-class RLlibEvaluator:
-    """The SB3 engine's evaluation: the policy on fixed seeds next to myopic and round-robin, rows of ``eval.csv``."""
-
-    def __init__(self, env_id: str, env_kwargs: dict, n_episodes: int, path: Path) -> None:
-        self.env = gym.make(env_id, **env_kwargs).unwrapped
-        self.seeds = list(range(EVAL_SEED0, EVAL_SEED0 + n_episodes))
-        self.path = path
-        self.baselines: dict[str, EvalResult] = {}
-        for name in ("myopic", "round-robin"):
-            sched = make_scheduler(name)
-            sched.reset(0)
-            self.baselines[name] = evaluate_policy_on_seeds(sched.act, self.env, self.seeds)
-
-    def evaluate(self, agent: RLlibPolicyScheduler, timesteps: int) -> EvalResult:
-        """Evaluate now and append a row."""
-        res = evaluate_policy_on_seeds(agent.act, self.env, self.seeds)
-        new = not self.path.exists()
-        with self.path.open("a", newline="") as f:
-            w = csv.writer(f)
-            if new:
-                w.writerow(EVAL_COLUMNS)
-            m, rr = self.baselines["myopic"], self.baselines["round-robin"]
-            w.writerow([timesteps, res.mean_return, res.mean_trace, m.mean_return, m.mean_trace, rr.mean_return,
-                        rr.mean_trace])  # fmt: skip
-        return res
-
-
 def _progress_row(path: Path, row: list[Any]) -> None:
     new = not path.exists()
     with path.open("a", newline="") as f:
@@ -511,14 +473,7 @@ def train_rllib(cfg: RLlibTrainConfig, resume: bool = False, progress: bool = Tr
                 "checkpoint_every": cfg.checkpoint_every}  # fmt: skip
     out = cfg.out
     with FolderLock(out, "training"):
-        meta = out / "run.yaml"
-        if meta.is_file() and not resume:
-            raise ValueError(f"{out}: already holds a training run ({meta}); use --resume or another --out")
-        if resume and meta.is_file():
-            old = _read_yaml(meta, "a training run's configuration (YAML mapping)")
-            for key in ("engine", "env_id", "algo", "seed", "env_kwargs", "hyper"):
-                if old.get(key) != run_yaml[key]:
-                    raise ValueError(f"--resume: {key} = {run_yaml[key]!r} differs from the run's {old.get(key)!r}")
+        check_run_folder(out, run_yaml, resume, ("engine", "env_id", "algo", "seed", "env_kwargs", "hyper"))
         started = _init_ray(cfg)
         try:
             return _train(cfg, hyper, resume, progress, yaml.safe_dump(run_yaml, sort_keys=True))
@@ -544,7 +499,7 @@ def _train(cfg: RLlibTrainConfig, hyper: dict, resume: bool, progress: bool, met
         atomic_write_text(out / "run.yaml", meta)
         keep_rows_up_to(out / "progress.csv", "timesteps", steps)
         keep_rows_up_to(out / "eval.csv", "timesteps", steps)
-        evaluator = RLlibEvaluator(cfg.env_id, cfg.env_kwargs, int(hyper["eval_episodes"]), out / "eval.csv")
+        evaluator = EvalTable(cfg.env_id, cfg.env_kwargs, int(hyper["eval_episodes"]), out / "eval.csv")
         t0 = time.monotonic()
         saved_at = algo.iteration if steps else -1
         while steps < cfg.timesteps:
@@ -559,10 +514,10 @@ def _train(cfg: RLlibTrainConfig, hyper: dict, resume: bool, progress: bool, met
             if progress:
                 print(f"iteration {algo.iteration}: {steps}/{cfg.timesteps} steps, return {ret:.4g}", file=sys.stderr)
             if algo.iteration % cfg.checkpoint_every == 0:
-                evaluator.evaluate(_scheduler_of(save_checkpoint(algo, out), cfg.algo), steps)
+                evaluator.evaluate(_scheduler_of(save_checkpoint(algo, out), cfg.algo).act, steps)
                 saved_at = algo.iteration
         if saved_at != algo.iteration:
-            evaluator.evaluate(_scheduler_of(save_checkpoint(algo, out), cfg.algo), steps)
+            evaluator.evaluate(_scheduler_of(save_checkpoint(algo, out), cfg.algo).act, steps)
         _save_policy(rllib_checkpoints(out)[0][1], out)
     finally:
         algo.stop()

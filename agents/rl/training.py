@@ -128,22 +128,57 @@ def evaluate_policy_on_seeds(act, env: gym.Env, seeds: list[int]) -> EvalResult:
     return EvalResult(float(np.mean(returns)), float(np.mean(traces)) if traces else math.nan)
 
 
+EVAL_COLUMNS = ["timesteps", "return", "trace_m2", "myopic_return", "myopic_trace_m2", "round_robin_return",
+                "round_robin_trace_m2"]  # fmt: skip
+"""The columns of ``eval.csv`` (both engines)."""
+
+
+class EvalTable:
+    """The policy on fixed evaluation seeds next to the myopic and round-robin schedulers: rows of ``eval.csv``.
+
+    The baselines are played once, on first use; both engines (SB3 here, RLlib in ``rllib_engine``) append to it.
+    """
+
+    def __init__(self, env_id: str, env_kwargs: dict, n_episodes: int, path: Path) -> None:
+        self.env = gym.make(env_id, **env_kwargs).unwrapped
+        self.seeds = list(range(EVAL_SEED0, EVAL_SEED0 + n_episodes))
+        self.path = path
+        self.baselines: dict[str, EvalResult] = {}
+
+    def prepare(self) -> None:
+        """Play the baselines on the evaluation seeds (once)."""
+        for name in ("myopic", "round-robin"):
+            if name not in self.baselines:
+                sched = make_scheduler(name)
+                sched.reset(0)
+                self.baselines[name] = evaluate_policy_on_seeds(sched.act, self.env, self.seeds)
+
+    def evaluate(self, act, timesteps: int) -> EvalResult:
+        """Play ``act(obs, env)`` on the evaluation seeds and append a row (``timesteps``) to ``eval.csv``."""
+        self.prepare()
+        res = evaluate_policy_on_seeds(act, self.env, self.seeds)
+        new = not self.path.exists()
+        with self.path.open("a", newline="") as f:
+            w = csv.writer(f)
+            if new:
+                w.writerow(EVAL_COLUMNS)
+            m, rr = self.baselines["myopic"], self.baselines["round-robin"]
+            w.writerow([timesteps, res.mean_return, res.mean_trace, m.mean_return, m.mean_trace, rr.mean_return,
+                        rr.mean_trace])  # fmt: skip
+        return res
+
+
 class SchedulerEvalCallback(BaseCallback):
-    """Evaluate the policy on fixed seeds next to the myopic and round-robin schedulers (``eval.csv``)."""
+    """Evaluate the policy every ``eval_freq`` steps on fixed seeds next to myopic and round-robin (``EvalTable``)."""
 
     def __init__(self, env_id: str, env_kwargs: dict, n_episodes: int, eval_freq: int, path: Path) -> None:
         super().__init__()
-        self.env = gym.make(env_id, **env_kwargs).unwrapped
-        self.seeds = list(range(EVAL_SEED0, EVAL_SEED0 + n_episodes))
-        self.eval_freq, self.path = eval_freq, path
-        self.baselines: dict[str, EvalResult] = {}
+        self.table = EvalTable(env_id, env_kwargs, n_episodes, path)
+        self.eval_freq = eval_freq
         self._last = 0
 
     def _on_training_start(self) -> None:
-        for name in ("myopic", "round-robin"):
-            sched = make_scheduler(name)
-            sched.reset(0)
-            self.baselines[name] = evaluate_policy_on_seeds(sched.act, self.env, self.seeds)
+        self.table.prepare()
         self._last = self.num_timesteps
 
     def _on_step(self) -> bool:
@@ -155,34 +190,7 @@ class SchedulerEvalCallback(BaseCallback):
     def evaluate(self) -> EvalResult:
         """Evaluate now and append a row to the CSV."""
         agent = PolicyScheduler(self.model, self.training_env if isinstance(self.training_env, VecNormalize) else None)
-        res = evaluate_policy_on_seeds(agent.act, self.env, self.seeds)
-        new = not self.path.exists()
-        with self.path.open("a", newline="") as f:
-            w = csv.writer(f)
-            if new:
-                w.writerow(
-                    [
-                        "timesteps",
-                        "return",
-                        "trace_m2",
-                        "myopic_return",
-                        "myopic_trace_m2",
-                        "round_robin_return",
-                        "round_robin_trace_m2",
-                    ]
-                )
-            m, rr = self.baselines["myopic"], self.baselines["round-robin"]
-            w.writerow(
-                [
-                    self.num_timesteps,
-                    res.mean_return,
-                    res.mean_trace,
-                    m.mean_return,
-                    m.mean_trace,
-                    rr.mean_return,
-                    rr.mean_trace,
-                ]
-            )
+        res = self.table.evaluate(agent.act, self.num_timesteps)
         self.logger.record("eval/return", res.mean_return)
         self.logger.record("eval/trace_m2", res.mean_trace)
         return res
@@ -503,15 +511,20 @@ def train(cfg: TrainConfig, resume: bool = False, progress: bool = True) -> Base
         "hyper": hyper,
     }
     with FolderLock(out, "training"):
-        meta = out / "run.yaml"
-        if meta.is_file() and not resume:
-            raise ValueError(f"{out}: already holds a training run ({meta}); use --resume or another --out")
-        if resume and meta.is_file():
-            old = _read_yaml(meta, "a training run's configuration (YAML mapping)")
-            for key in ("env_id", "algo", "seed", "env_kwargs", "common", "hyper"):
-                if old.get(key) != run_yaml[key]:
-                    raise ValueError(f"--resume: {key} = {run_yaml[key]!r} differs from the run's {old.get(key)!r}")
+        check_run_folder(out, run_yaml, resume, ("env_id", "algo", "seed", "env_kwargs", "common", "hyper"))
         return _train(cfg, common, hyper, resume, progress, yaml.safe_dump(run_yaml, sort_keys=True))
+
+
+def check_run_folder(out: Path, run_yaml: dict, resume: bool, fixed: tuple[str, ...]) -> None:
+    """Refuse a folder that holds a run unless ``resume``; a resumed run must match its ``run.yaml`` on ``fixed``."""
+    meta = out / "run.yaml"
+    if meta.is_file() and not resume:
+        raise ValueError(f"{out}: already holds a training run ({meta}); use --resume or another --out")
+    if resume and meta.is_file():
+        old = _read_yaml(meta, "a training run's configuration (YAML mapping)")
+        for key in fixed:
+            if old.get(key) != run_yaml[key]:
+                raise ValueError(f"--resume: {key} = {run_yaml[key]!r} differs from the run's {old.get(key)!r}")
 
 
 def _train(cfg: TrainConfig, common: dict, hyper: dict, resume: bool, progress: bool, meta: str) -> BaseAlgorithm:

@@ -73,12 +73,11 @@ from scipy.stats import chi2
 from uwb_env.config import TrackerConfig
 from uwb_env.localization import locate
 from uwb_env.scene.layout import SceneLayout
-from uwb_env.scene.motion_models import model_transition, process_noise
 from uwb_env.sensing.records import Detections
 from uwb_env.tracking.expectation import GaussianLookahead
 from uwb_env.tracking.pd_grid import occupied_cells
 from uwb_env.tracking.protocol import Prediction
-from uwb_env.tracking.tracker import ZERO_ACCELERATION_STD, TrackSet
+from uwb_env.tracking.tracker import ZERO_ACCELERATION_STD, TrackSet, motion_matrices
 from uwb_env.typing import BoolArray, FloatArray, IntArray
 
 PdModel = Callable[[int, int, FloatArray], FloatArray]
@@ -257,10 +256,7 @@ class PhdTracker(GaussianLookahead):
         key = round(dt, 12)
         m = self._matrices.get(key)
         if m is None:
-            F, G = model_transition("ncv", key)
-            Q = process_noise(G, self.phd.accel_noise_std_mps2)
-            Q[4, 4] = Q[5, 5] = ZERO_ACCELERATION_STD**2
-            m = self._matrices[key] = (F, Q, G)
+            m = self._matrices[key] = motion_matrices("ncv", key, 0.0, self.phd.accel_noise_std_mps2)
         return m
 
     def _predict_gaussians(self, x: FloatArray, P: FloatArray, dt: float) -> tuple[FloatArray, FloatArray]:

@@ -65,6 +65,21 @@ _PV = np.array([0, 2, 1, 3])  # state indices of (x, y, vx, vy)
 """Acceleration std [m/s^2] kept by models without acceleration (NCV, CT) so covariances stay positive definite."""
 
 
+def motion_matrices(
+    kind: str, dt: float, turn_rate_rps: float, accel_std_mps2: float
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """``(F (6, 6), Q (6, 6), G (6, 2))`` of a motion model over ``dt`` (``scene.motion_models``), as trackers use it.
+
+    Seed 003's NCV / CT zero the acceleration rows, which leaves P singular; they carry the acceleration as zero-mean
+    with the tiny variance ``ZERO_ACCELERATION_STD``^2 instead, so P stays positive definite.
+    """
+    F, G = model_transition(kind, dt, turn_rate_rps)
+    Q = process_noise(G, accel_std_mps2)
+    if kind != "nca":
+        Q[4, 4] = Q[5, 5] = ZERO_ACCELERATION_STD**2
+    return F, Q, G
+
+
 @dataclass(slots=True)
 class _Candidates:
     """Initiation candidates kept from the previous scan."""
@@ -165,12 +180,7 @@ class Tracker(GaussianLookahead):
         if key not in self._matrices:
             Fs, Qs = [], []
             for m in self.cfg.models:  # the model set: a small fixed set
-                F, G = model_transition(m.kind, key, m.turn_rate_rps)
-                Q = process_noise(G, m.accel_noise_std_mps2)
-                if m.kind != "nca":
-                    # Seed 003's NCV / CT zero the acceleration rows, which leaves P singular; they carry the
-                    # acceleration as zero-mean with a tiny variance instead, so P stays positive definite.
-                    Q[4, 4] = Q[5, 5] = ZERO_ACCELERATION_STD**2
+                F, Q, _ = motion_matrices(m.kind, key, m.turn_rate_rps, m.accel_noise_std_mps2)
                 Fs.append(F)
                 Qs.append(Q)
             self._matrices[key] = (np.stack(Fs), np.stack(Qs))
