@@ -33,16 +33,9 @@ from uwb_env.config import ScenarioConfig
 from uwb_env.constants import SPEED_OF_LIGHT_MPS
 from uwb_env.detection import (
     align_to_reference,
-    ca_cfar,
-    ca_threshold_factor,
-    cluster_detections,
     direct_path_toa,
-    dtb_cfar,
     exponential_background,
     fractional_shift,
-    g_cfar,
-    os_cfar,
-    os_threshold_factor,
     parabolic_peak,
     rectified_difference,
     square_law_envelope,
@@ -56,6 +49,7 @@ from uwb_env.detection.energy_detector import (
     zonal_bandpass,
     zonal_noise_variance,
 )
+from uwb_env.detection.registry import cfar_detector, toa_estimator
 from uwb_env.localization import locate
 from uwb_env.rng import RngStreams
 from uwb_env.scene import extended
@@ -185,14 +179,12 @@ class SignalSensor(ParametricModelHooks):
         self.jump_back = max(1, round(sig.dp_jump_back_s * self.fs))
         self.blind = cfg.sensing.blind_zone_excess_m / SPEED_OF_LIGHT_MPS * self.fs
         self.half_window = max(4, round(4.0 * s * self.fs))
-        self.alpha = 0.0  # threshold factor of CA / G / OS (DTB has its own weights)
-        if sig.cfar == "ca":
-            self.alpha = ca_threshold_factor(sig.cfar_pfa, 2 * sig.cfar_reference)
-        elif sig.cfar == "g":
-            self.alpha = ca_threshold_factor(sig.cfar_pfa, sig.n_samples - 2 * sig.cfar_guard - 1)
-        elif sig.cfar == "os":
-            self.alpha = os_threshold_factor(sig.cfar_pfa, 2 * sig.cfar_reference, sig.os_rank)
-        self.range_std_m = sig.range_std_floor_m
+        self.cfar = cfar_detector(sig.cfar)  # registry: threshold-factor design + detector kernel
+        self.alpha = self.cfar.design(sig, sig.n_samples)  # threshold factor of CA / G / OS (DTB: its own weights)
+        self.toa = toa_estimator(sig.toa_estimator)
+        # the trackers' range std: the floor, and an extended person's spread about its centre (BodyModelConfig)
+        body_std = sig.body.range_std_m if sig.target_model == "extended" else 0.0
+        self.range_std_m = math.hypot(sig.range_std_floor_m, body_std)
         self.origin_tolerance_m = ORIGIN_TOLERANCE_M
         if sig.toa_estimator == "energy-detector":
             self._init_energy_detector()
@@ -469,9 +461,7 @@ class SignalSensor(ParametricModelHooks):
             d = rectified_difference(aligned, ref)
             d[blind] = 0.0
             decisions = self._cfar(d)
-        clusters = cluster_detections(
-            decisions, d, sig.cluster_distance_s * self.fs, sig.cluster_min_weight, sig.toa_estimator
-        )
+        clusters = self.toa.estimate(decisions, d, sig, self.fs)
         row, toa_s = clusters[0], clusters[1]
         ranges = self.baseline[pair][row] + SPEED_OF_LIGHT_MPS * (toa_s - ref_peak[row]) / self.fs
         return aligned, d, decisions, clusters, ranges
@@ -539,12 +529,19 @@ class SignalSensor(ParametricModelHooks):
         return (SPEED_OF_LIGHT_MPS * sigma_t) ** 2 + self.range_std_m**2
 
     def controlled_scans(
-        self, rng: np.random.Generator, pair: int, waveform: int, excess_range_m: float, snr: FloatArray
+        self,
+        rng: np.random.Generator,
+        pair: int,
+        waveform: int,
+        excess_range_m: float,
+        snr: FloatArray,
+        speed_mps: float = 1.5,
     ) -> FloatArray:
         """Calibration input: scans ``(B, N)`` of one pair with a single echo of integrated SNR ``snr`` (B,).
 
         The echo lies ``excess_range_m`` beyond the baseline, over the room's background; fluctuation, jitter, echo
-        phase and noise are drawn from ``rng``.
+        phase and noise are drawn from ``rng``. With ``target_model = "extended"`` the echo is a walking person's
+        (:meth:`_controlled_body`, at ``speed_mps``): ``snr`` is the body's mean SNR, ``excess_range_m`` its centre's.
         """
         sig = self.sig
         B = np.asarray(snr).shape[0]
@@ -552,21 +549,58 @@ class SignalSensor(ParametricModelHooks):
             self.path_amplitude[pair], sig.clutter_fluctuation * rng.standard_normal((B, sig.n_multipath))
         )
         background = math.sqrt(2.0 * self.dp_snr[waveform, pair]) * gain @ self.path_waveforms[pair]
-        excess = np.full((B, 1), excess_range_m / SPEED_OF_LIGHT_MPS)
-        phase = rng.uniform(0.0, 2.0 * math.pi, (B, 1))
+        if sig.target_model == "extended":
+            echo = self._controlled_body(rng, pair, excess_range_m, np.asarray(snr, dtype=float), speed_mps)
+            excess, echo_snr, phase = echo
+        else:
+            excess = np.full((B, 1), excess_range_m / SPEED_OF_LIGHT_MPS)
+            phase = rng.uniform(0.0, 2.0 * math.pi, (B, 1))
+            echo_snr = np.asarray(snr, dtype=float)[:, None]
         jitter = sig.scan_jitter_s * self.fs * rng.standard_normal(B)
         noise = rng.standard_normal(background.shape)
-        return self._compose(background, excess, np.asarray(snr, dtype=float)[:, None], phase, jitter, noise)
+        return self._compose(background, excess, echo_snr, phase, jitter, noise)
+
+    def _controlled_body(
+        self, rng: np.random.Generator, pair: int, excess_range_m: float, snr: FloatArray, speed_mps: float
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """A walking person's echoes for :meth:`controlled_scans`: ``(B, 6)`` delays [s], SNRs, carrier phases.
+
+        The body's centre lies ``excess_range_m`` beyond the pair's baseline on the baseline's bisector, on the
+        surveillance area's side (a monostatic radar: towards the area's centre); per scan a uniform heading and
+        gait phase at ``speed_mps``; each scattering centre as in :meth:`_body_echoes` (specular point, path loss
+        relative to the centre's, RCS share, torso occlusion) with the first target's Swerling factor and a uniform
+        carrier phase. The centres' SNRs average to ``snr`` (B,) when no arm is occluded and the path losses equal.
+        """
+        body = self.sig.body
+        B, C = snr.shape[0], len(extended.CENTRES)
+        t, r = (int(v) for v in self.pairs[pair])
+        tx, rx = self.layout.tx_pos[t], self.layout.rx_pos[r]
+        area = self.layout.area
+        mid, toward = 0.5 * (tx + rx), np.array([0.5 * (area[0] + area[1]), 0.5 * (area[2] + area[3])])
+        base, total = float(self.baseline[pair]), float(self.baseline[pair]) + excess_range_m
+        if base > 1e-9:
+            normal = np.array([tx[1] - rx[1], rx[0] - tx[0]]) / base
+            normal = normal if np.dot(toward - mid, normal) >= 0.0 else -normal
+            centre = mid + normal * math.sqrt(max(0.25 * total**2 - 0.25 * base**2, 0.0))
+        else:
+            direction = toward - mid
+            centre = mid + 0.5 * total * direction / max(float(np.linalg.norm(direction)), 1e-12)
+        position = np.broadcast_to(centre, (B, 2))
+        heading = rng.uniform(0.0, 2.0 * math.pi, B)
+        offsets = extended.centre_offsets(rng.uniform(0.0, 2.0 * math.pi, B), np.full(B, speed_mps), body)
+        pts = extended.specular_points(position, heading, offsets, tx[None], rx[None], body)[0]  # (B, 6, 2)
+        lt, lr = np.linalg.norm(pts - tx, axis=-1), np.linalg.norm(pts - rx, axis=-1)
+        lt0, lr0 = float(np.linalg.norm(centre - tx)), float(np.linalg.norm(centre - rx))
+        gain = (lt0 * lr0 / np.maximum(lt * lr, 1e-12)) ** self.cfg.channel.path_loss_exponent * extended.shares(body)
+        occluded = extended.occlusion_loss_db(position, heading, offsets, tx[None], rx[None], body)[0]
+        gain = gain * 10.0 ** (-occluded / 10.0)
+        fluct = rcs_fluctuation(self.model.swerling[:1], (B, C), rng)[..., 0]
+        excess = (excess_range_m + (lt + lr) - (lt0 + lr0)) / SPEED_OF_LIGHT_MPS
+        return excess, snr[:, None] * gain * fluct, rng.uniform(0.0, 2.0 * math.pi, (B, C))
 
     def _cfar(self, d: FloatArray) -> BoolArray:
-        sig = self.sig
-        if sig.cfar == "dtb":
-            return dtb_cfar(d, sig.dtb_alpha_local, sig.dtb_alpha_global, sig.dtb_buffer, sig.dtb_qmax, sig.dtb_delta)
-        if sig.cfar == "ca":
-            return ca_cfar(d, self.alpha, sig.cfar_reference, sig.cfar_guard)
-        if sig.cfar == "g":
-            return g_cfar(d, self.alpha, sig.cfar_guard)
-        return os_cfar(d, self.alpha, sig.cfar_reference, sig.cfar_guard, sig.os_rank)
+        """CFAR decisions ``(B, N)`` of the detector ``sensing.signal.cfar`` (:mod:`uwb_env.detection.registry`)."""
+        return self.cfar.detect(d, self.alpha, self.sig)
 
     # -------------------------------------------------------------------------------------------- network
     def sense(self, episode: SignalEpisode, k: int, plan: ScanPlan, time_s: float = 0.0) -> tuple[Detections, ...]:
