@@ -38,9 +38,21 @@ class ScanResult:
 class Simulator:
     """Owns the sensor, the tracker and the episode's streams (simulator tier)."""
 
-    def __init__(self, cfg: ScenarioConfig, tracker: TrackerConfig | None = None, use_sensor_pd: bool = True) -> None:
+    def __init__(
+        self,
+        cfg: ScenarioConfig,
+        tracker: TrackerConfig | None = None,
+        use_sensor_pd: bool = True,
+        sensor: Sensor | None = None,
+    ) -> None:
+        """The simulator of scenario ``cfg``.
+
+        ``sensor``: a sensor of ``cfg`` to share (it keeps no episode state: ``new_episode`` returns it), e.g.
+        between the simulators of a batched vector env; None builds one.
+        """
         self.cfg = cfg
-        self.sensor: Sensor = make_sensor(cfg)  # the registry of (fidelity, waveform family) (sensing.protocol)
+        # the registry of (fidelity, waveform family) (sensing.protocol)
+        self.sensor: Sensor = make_sensor(cfg) if sensor is None else sensor
         self.tracker_cfg = tracker or cfg.tracker
         # the tracker of TrackerConfig.kind (uwb_env.tracking.registry), read only through its seam
         self.tracker: MultiTargetTracker = make_tracker(

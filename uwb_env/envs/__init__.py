@@ -48,12 +48,21 @@ Version history:
 
 
 def register_envs() -> None:
-    """Register every id of :data:`ENV_IDS` with gymnasium (idempotent)."""
+    """Register every id of :data:`ENV_IDS` with gymnasium (idempotent).
+
+    Each id has a ``vector_entry_point``: ``gymnasium.make_vec(id, num_envs=N, vectorization_mode=
+    "vector_entry_point")`` gives the batched ``uwb_env.envs.vector.UWBVectorEnv``.
+    """
     import gymnasium as gym
 
     for env_id, kwargs in ENV_IDS.items():
         if env_id not in gym.registry:
-            gym.register(id=env_id, entry_point="uwb_env.envs.scheduling:UWBSchedulingEnv", kwargs=dict(kwargs))
+            gym.register(
+                id=env_id,
+                entry_point="uwb_env.envs.scheduling:UWBSchedulingEnv",
+                vector_entry_point="uwb_env.envs.vector:UWBVectorEnv",
+                kwargs=dict(kwargs),
+            )
 
 
 __all__ = ["ACTION_KINDS", "ENV_IDS", "UWBSchedulingEnv", "enumerate_plans", "register_envs"]

@@ -76,6 +76,7 @@ from uwb_env.config import TRACKER_KINDS, ScenarioConfig, apply_overrides
 from uwb_env.envs.features import track_features
 from uwb_env.lookahead import check_q2, detection_probabilities, lookahead_costs, search_information, sequence_costs
 from uwb_env.metrics import cover_summary
+from uwb_env.sensing.protocol import Sensor
 from uwb_env.sensing.records import ScanPlan
 from uwb_env.sim import ScanResult, Simulator
 from uwb_env.typing import BoolArray, FloatArray
@@ -225,6 +226,7 @@ class UWBSchedulingEnv(gym.Env):
         out_of_service_rx: tuple[int | str, ...] = (),
         unavailable_waveforms: tuple[int | str, ...] = (),
         render_mode: str | None = None,
+        _sensor: Sensor | None = None,
         **overrides: Any,
     ) -> None:
         if not isinstance(scenario, (str, ScenarioConfig)):
@@ -260,7 +262,7 @@ class UWBSchedulingEnv(gym.Env):
         self._dead_w = _node_mask(
             "unavailable_waveforms", unavailable_waveforms, [w.name for w in self.cfg.waveforms], "waveform"
         )
-        self.sim = Simulator(self.cfg)
+        self.sim = Simulator(self.cfg, sensor=_sensor)  # _sensor: one shared by a batched vector env (envs.vector)
         sensor = self.sim.sensor
         plans = enumerate_plans(action_kind, len(sensor.library), sensor.n_tx, sensor.n_rx, subset_size, fixed_waveform)
         if action_kind == "waveform":  # every in-service receiver listens; a receiver out of service cannot
@@ -502,7 +504,8 @@ class UWBSchedulingEnv(gym.Env):
             "model_probabilities": np.zeros(self.n_models),
         }
 
-    def _observation(self) -> Any:
+    def _observation(self, lookahead: dict[str, FloatArray] | None = None) -> Any:
+        """The observation (module docstring); ``lookahead``: its lookahead parts if already computed (scaled)."""
         tracks = self.sim.tracker.tracks
         x, P = tracks.combined()
         feats = track_features(
@@ -512,7 +515,9 @@ class UWBSchedulingEnv(gym.Env):
         if self._previous is not None:
             prev[self._previous] = 1.0
         parts = {"tracks": feats, "previous_action": prev}
-        if self.include_lookahead:
+        if self.include_lookahead and lookahead is not None:
+            parts.update(lookahead)
+        elif self.include_lookahead:
             parts["lookahead"] = _scaled_cost(self.lookahead_costs())
             if self.receiver_warmup:
                 parts["lookahead_all_ready"] = _scaled_cost(lookahead_costs(*self._next_scan(), q2=self.lookahead_q2))

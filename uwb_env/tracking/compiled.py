@@ -682,6 +682,39 @@ def receiver_update(
     return psi_post, taken, ok
 
 
+@_jit
+def receiver_update_batch(
+    x, P, mu, active, track_start, envs, psi, pd, z, R, rho, det_start, kinds, tx, rx, wm, wc, sigma_scale, use_ukf,
+    g2, pg, fixed_existence, periods,
+):  # pragma: no cover - compiled  # fmt: skip
+    """``receiver_update`` of one pair for several independent environments, in one call (batched vector env).
+
+    The environments' tracks are concatenated: env e owns rows ``track_start[e]:track_start[e + 1]`` of x
+    ``(N, r, 6)``, P, mu ``(N, r)``, active ``(N, r)`` (its model set: every track of an env shares it), psi and
+    pd ``(N,)``. The pair's detections of the environments ``envs`` ``(E,)`` are concatenated too: the j-th's are
+    rows ``det_start[j]:det_start[j + 1]`` of z ``(M, m)``, R, rho, with its range-rate period ``periods[j]``.
+    Each environment is updated exactly as ``receiver_update`` would on its own (LMIPDA couples tracks within an
+    environment only); x, P, mu and psi are updated in place.
+
+    Returns: taken ``(M,)`` and ok (False if some covariance was not positive definite).
+    """
+    taken = np.zeros(z.shape[0], np.bool_)
+    ok = True
+    for j in range(envs.shape[0]):
+        e = envs[j]
+        a0, a1 = track_start[e], track_start[e + 1]
+        d0, d1 = det_start[j], det_start[j + 1]
+        act = np.flatnonzero(active[a0])
+        psi_e, taken_e, ok_e = receiver_update(
+            x[a0:a1], P[a0:a1], mu[a0:a1], act, psi[a0:a1], pd[a0:a1], z[d0:d1], R[d0:d1], rho[d0:d1], kinds,
+            tx, rx, wm, wc, sigma_scale, use_ukf, g2, pg, fixed_existence, periods[j],
+        )  # fmt: skip
+        psi[a0:a1] = psi_e
+        taken[d0:d1] = taken_e
+        ok = ok and ok_e
+    return taken, ok
+
+
 # ------------------------------------------------------------------------------------------------- initiation
 @_jit
 def _read_table(table, grid, pd, log_lam):  # pragma: no cover - compiled

@@ -207,7 +207,6 @@ class Tracker(GaussianLookahead):
     # ------------------------------------------------------------------------------------------------ scan
     def step(self, detections: Sequence[Detections], time_s: float, scan_index: int) -> TrackSet:
         """Process one scan of detections (all pairs) and return the updated tracks."""
-        cfg = self.cfg
         if self._time is not None and len(self.tracks):
             self._predict(time_s - self._time, scan_index)
         self._time = time_s
@@ -217,6 +216,11 @@ class Tracker(GaussianLookahead):
             used = self._update(self._with_floor(det)) if len(self.tracks) and len(det) else np.zeros(len(det), bool)
             unused.append((det, ~used))
         self._initiate(unused, time_s, scan_index)
+        return self._confirm_and_prune()
+
+    def _confirm_and_prune(self) -> TrackSet:
+        """Step 5 of the scan (module docstring): confirmation, then deletion; returns the tracks kept."""
+        cfg = self.cfg
         t = self.tracks
         t.confirmed = t.confirmed | (t.existence >= cfg.confirm_existence)
         x, P = t.combined()

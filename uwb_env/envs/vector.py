@@ -1,0 +1,308 @@
+r"""``UWBVectorEnv``: N scheduling environments stepped in lockstep, each stage batched over the environments.
+
+``gymnasium.make_vec(id, num_envs=N, vectorization_mode="vector_entry_point")`` returns it for every registered id
+(``uwb_env.envs.ENV_IDS``); the keyword arguments are the single env's (``UWBSchedulingEnv``) plus
+``autoreset_mode`` (``gymnasium.vector.AutoresetMode``: ``NEXT_STEP``, the default, ``SAME_STEP`` or
+``DISABLED``). Environment e behaves exactly as ``UWBSchedulingEnv`` would with the same seed and actions: the same
+observations, rewards, terminations, truncations and infos (``tests/test_batched_vector_env.py``), in the layout of
+Gymnasium's ``SyncVectorEnv`` (stacked observations, infos as arrays with ``_key`` masks, ``final_obs`` /
+``final_info`` in ``SAME_STEP`` mode).
+
+What is batched (one call per scan for all N, not N step calls):
+    * sensing: one sensor shared by the N episodes (its episode draws stay per environment, so common random
+      numbers hold env by env); each scan's detections are a row selection per environment;
+    * tracking: ``uwb_env.tracking.batch.BatchedTracker`` (prediction, the sensor model's Pd and the LMIPDA + PDA
+      updates as compiled calls over every environment's tracks; initiation and track management per environment);
+    * lookahead (``lookahead_costs()`` ``(N, A)``, also in the observation with ``include_lookahead``): the scored
+      tracks of every environment predicted in one compiled call and their expected updates in one
+      ``expected_posterior`` over plans x all tracks, averaged per environment;
+    * reward, info and observation: per environment from the same compiled kernels (``metrics.cover_summary``,
+      ``envs.features.track_features``).
+
+Scope: the parametric fidelity and the ``imm-lmipda`` tracker (every registered id's defaults); another fidelity or
+tracker raises ``ValueError`` naming the keyword (use ``vectorization_mode="sync"`` for those). ``render`` is not
+batched (``render_mode`` must be None).
+
+Seeds: ``reset(seed=s)`` seeds environment e with ``s + e`` (an int) or ``s[e]`` (a list), as ``SyncVectorEnv``;
+``reset(options={"reset_mask": mask})`` resets only the environments where ``mask`` ``(N,)`` is True (the others
+keep their episodes), so episodes can end at different steps. ``action_masks()`` ``(N, A)``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space, concatenate, create_empty_array
+
+from uwb_env.envs.scheduling import UWBSchedulingEnv, _scaled_cost
+from uwb_env.lookahead import expected_posterior, position_trace
+from uwb_env.sensing.records import ScanPlan
+from uwb_env.sim import ScanResult
+from uwb_env.tracking.batch import BatchedTracker
+from uwb_env.typing import BoolArray, FloatArray, IntArray
+
+AUTORESET_MODES = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP, AutoresetMode.DISABLED)
+
+
+class UWBVectorEnv(VectorEnv):
+    """``num_envs`` copies of ``UWBSchedulingEnv(**kwargs)`` stepped together (module docstring)."""
+
+    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}  # noqa: RUF012 (gymnasium's field)
+
+    def __init__(
+        self, num_envs: int, autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, **kwargs: Any
+    ) -> None:
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ValueError(f"num_envs={num_envs!r}: must be an integer >= 1")
+        try:
+            mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            raise ValueError(
+                f"autoreset_mode={autoreset_mode!r}: must be one of {[m.value for m in AUTORESET_MODES]}"
+            ) from None
+        if kwargs.get("render_mode") is not None:
+            raise ValueError(f"render_mode={kwargs['render_mode']!r}: the batched vector env does not render (None)")
+        first = UWBSchedulingEnv(**kwargs)
+        if first.cfg.sensing.fidelity != "parametric":
+            raise ValueError(
+                f"fidelity={first.cfg.sensing.fidelity!r}: the batched vector env runs the parametric fidelity only "
+                "(use vectorization_mode='sync' for 'signal')"
+            )
+        if first.cfg.tracker.kind != "imm-lmipda":
+            raise ValueError(
+                f"tracker={first.cfg.tracker.kind!r}: the batched vector env runs 'imm-lmipda' only "
+                "(use vectorization_mode='sync' for the particle trackers)"
+            )
+        kwargs = {**kwargs, "scenario": first.cfg}  # the overrides are applied: build the rest from the config
+        for key in ("fidelity", "tracker"):
+            kwargs.pop(key, None)
+        self.envs = [first] + [UWBSchedulingEnv(**kwargs, _sensor=first.sim.sensor) for _ in range(num_envs - 1)]
+        self.num_envs = int(num_envs)
+        self.autoreset_mode = mode
+        self.metadata = {**self.metadata, "autoreset_mode": mode}
+        self.single_observation_space = first.observation_space
+        self.single_action_space = first.action_space
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.spec = None
+        self.render_mode = None
+        self.sensor = first.sim.sensor
+        self.plans = first.plans
+        self._mask = first.action_masks()
+        self._waveforms = np.array([p.waveform for p in self.plans], np.int64)  # (A, T)
+        self._tracker = BatchedTracker([env.sim.tracker for env in self.envs])
+        self._observations = create_empty_array(self.single_observation_space, self.num_envs)
+        self._autoreset = np.zeros(self.num_envs, bool)
+        self._started = False
+
+    # ------------------------------------------------------------------------------------------------ gym API
+    def reset(
+        self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[Any, dict[str, Any]]:
+        """Reset every environment (or those of ``options["reset_mask"]``); seeds as ``SyncVectorEnv``."""
+        options = dict(options or {})
+        mask = options.pop("reset_mask", None)
+        if options:
+            raise ValueError(f"options={options!r}: the only reset option is 'reset_mask'")
+        if mask is None:
+            mask = np.ones(self.num_envs, bool)
+        elif not isinstance(mask, np.ndarray) or mask.dtype != np.bool_ or mask.shape != (self.num_envs,):
+            raise ValueError(f"options['reset_mask']={mask!r}: must be a bool numpy array of shape ({self.num_envs},)")
+        elif not self._started and not mask.all():
+            raise ValueError("options['reset_mask']: the first reset must reset every environment")
+        if seed is None:
+            seeds: list[int | None] = [None] * self.num_envs
+        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+            seeds = [int(seed) + e for e in range(self.num_envs)]
+        elif isinstance(seed, (list, tuple)) and len(seed) == self.num_envs:
+            seeds = list(seed)
+        else:
+            raise ValueError(f"seed={seed!r}: must be None, an int or a list of {self.num_envs} ints / None")
+        infos: dict[str, Any] = {}
+        obs = list(self._unbatched())
+        for e in np.flatnonzero(mask).tolist():
+            obs[e], info = self.envs[e].reset(seed=seeds[e])
+            infos = self._add_info(infos, info, e)
+        self._autoreset[mask] = False
+        self._started = True
+        self._store(obs)
+        return self._copy(), infos
+
+    def step(self, actions: Any) -> tuple[Any, FloatArray, BoolArray, BoolArray, dict[str, Any]]:
+        """One scan of every environment (autoreset per ``autoreset_mode``, as ``SyncVectorEnv``)."""
+        if not self._started:
+            raise RuntimeError("step() before reset(): call reset() to start the episodes")
+        acts = self._check_actions(actions)
+        n = self.num_envs
+        rewards = np.zeros(n)
+        terminated = np.zeros(n, bool)
+        truncated = np.zeros(n, bool)
+        infos: dict[str, Any] = {}
+        obs = list(self._unbatched())
+        resetting = self._autoreset.copy() if self.autoreset_mode == AutoresetMode.NEXT_STEP else np.zeros(n, bool)
+        if self.autoreset_mode == AutoresetMode.DISABLED and self._autoreset.any():
+            raise RuntimeError(
+                f"autoreset_mode=DISABLED: environments {np.flatnonzero(self._autoreset).tolist()} ended; "
+                "reset them (options={'reset_mask': ...}) before stepping"
+            )
+        stepping = np.flatnonzero(~resetting)
+        self._scan(stepping, acts[stepping])
+        env_infos: list[dict[str, Any]] = [{}] * n
+        for e in range(n):
+            env = self.envs[e]
+            if resetting[e]:
+                obs[e], env_infos[e] = env.reset()
+            else:
+                rewards[e], env_infos[e] = env._reward_and_info(env._last, int(acts[e]))
+                truncated[e] = env.sim.done
+                if not env.include_lookahead:
+                    obs[e] = env._observation()
+        if self.envs[0].include_lookahead:
+            self._fill_lookahead_observations(obs, stepping)
+        for e in range(n):
+            if self.autoreset_mode == AutoresetMode.SAME_STEP and (truncated[e] or terminated[e]):
+                infos = self._add_info(infos, {"final_obs": obs[e], "final_info": env_infos[e]}, e)
+                obs[e], env_infos[e] = self.envs[e].reset()
+            infos = self._add_info(infos, env_infos[e], e)
+        self._autoreset = terminated | truncated
+        self._store(obs)
+        return self._copy(), rewards, terminated, truncated, infos
+
+    def action_masks(self) -> BoolArray:
+        """``(N, A)`` the valid actions of every environment (``UWBSchedulingEnv.action_masks``)."""
+        return np.broadcast_to(self._mask, (self.num_envs, self._mask.size)).copy()
+
+    def lookahead_costs(self) -> FloatArray:
+        """``(N, A)`` every environment's ``UWBSchedulingEnv.lookahead_costs`` for its next scan, in one batch."""
+        return self._lookahead(np.arange(self.num_envs))
+
+    def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
+        """``getattr(env, name)(*args, **kwargs)`` of every environment (its value if not callable)."""
+        out = []
+        for env in self.envs:
+            attr = getattr(env, name)
+            out.append(attr(*args, **kwargs) if callable(attr) else attr)
+        return tuple(out)
+
+    def get_attr(self, name: str) -> tuple[Any, ...]:
+        """An attribute of every environment."""
+        return tuple(getattr(env, name) for env in self.envs)
+
+    def close_extras(self, **kwargs: Any) -> None:
+        """Close every environment."""
+        for env in self.envs:
+            env.close()
+
+    # ------------------------------------------------------------------------------------------------ internals
+    def _check_actions(self, actions: Any) -> IntArray:
+        """``(N,)`` int actions; raises naming the environment of a bad or masked one."""
+        a = np.asarray(actions)
+        if a.shape != (self.num_envs,) or a.dtype.kind not in "iu":
+            raise ValueError(f"actions={actions!r}: must be {self.num_envs} integers in [0, {len(self.plans) - 1}]")
+        bad = (a < 0) | (a >= len(self.plans))
+        if not bad.any():
+            bad = ~self._mask[a]
+        if bad.any():
+            e = int(np.flatnonzero(bad)[0])
+            self.envs[e]._check_action(a[e])  # raises with the single env's message
+        return a.astype(np.int64)
+
+    def _scan(self, envs: IntArray, actions: IntArray) -> None:
+        """Sense and track the next scan of the environments ``envs`` with ``actions`` (``Simulator.step``'s flow)."""
+        if envs.size == 0:
+            return
+        dets, times, ks = [], np.zeros(envs.size), np.zeros(envs.size, np.int64)
+        for j, (e, a) in enumerate(zip(envs.tolist(), actions.tolist(), strict=True)):
+            env = self.envs[e]
+            sim = env.sim
+            if not env._started:
+                raise RuntimeError("step() before reset(): call reset() to start the episodes")
+            if sim.done:
+                raise RuntimeError(f"environment {e}: step() after its episode ended; reset it first")
+            plan = self.plans[a]
+            ready = env.ready_rx
+            sim.k += 1
+            times[j] = sim.k * sim.cfg.sensing.scan_period_s
+            ks[j] = sim.k
+            delivering = plan.active_rx if ready is None else plan.active_rx & ready
+            sensed = ScanPlan(plan.waveform, delivering) if ready is not None and delivering.any() else plan
+            sim._plan = sensed
+            d = self.sensor.sense(sim.episode, sim.k, sensed, float(times[j]))
+            dets.append(d if delivering.any() else ())
+            if env.receiver_warmup:
+                env._ready_rx = plan.active_rx.copy()
+        self._tracker.step(dets, times, ks, self._waveforms[actions], self._pd, envs)
+        for j, (e, a) in enumerate(zip(envs.tolist(), actions.tolist(), strict=True)):
+            env = self.envs[e]
+            env._previous = a
+            env._last = ScanResult(int(ks[j]), float(times[j]), dets[j], env.sim.tracker.tracks)
+
+    def _pd(self, tx: int, rx: int, waveform: int, positions: FloatArray) -> FloatArray:
+        """The tracker's detection probability at pair (tx, rx) with ``waveform`` (``Simulator._pd``)."""
+        tc = self.envs[0].sim.tracker_cfg
+        pd = self.sensor.detection_probability_at(tx, rx, positions, waveform, tc.assumed_rcs_m2, tc.assumed_swerling)
+        return np.minimum(pd, tc.max_detection_probability)
+
+    def _lookahead(self, envs: IntArray, all_ready: bool = False) -> FloatArray:
+        """``(E, A)`` the lookahead costs of the environments ``envs`` (``lookahead.lookahead_costs``), batched."""
+        A = len(self.plans)
+        xs, Ps, counts, ready = [], [], [], []
+        for e in envs.tolist():
+            env = self.envs[e]
+            k = env.sim.k + 1
+            pred = env.sim.tracker.scored_prediction(k * env.cfg.sensing.scan_period_s, k)
+            counts.append(0 if pred is None else pred.x.shape[0])
+            if pred is not None:
+                xs.append(pred.x)
+                Ps.append(pred.P)
+                r = env.ready_rx
+                ready.append(np.broadcast_to(np.ones(self.sensor.n_rx, bool) if r is None or all_ready else r,
+                                             (pred.x.shape[0], self.sensor.n_rx)))  # fmt: skip
+        costs = np.zeros((envs.size, A))
+        if not xs:
+            return costs
+        x, P = np.concatenate(xs), np.concatenate(Ps)
+        first = self.envs[0]
+        delivering = None
+        if first.receiver_warmup and not all_ready:
+            listening = np.array([p.active_rx for p in self.plans])  # (A, R)
+            delivering = listening[:, None, :] & np.concatenate(ready)[None]
+        traces = position_trace(
+            expected_posterior(x, P, self.sensor, first.sim.tracker, self.plans, first.lookahead_q2, delivering)
+        )  # (A, N)
+        counts_a = np.array(counts)
+        has = counts_a > 0
+        start = np.concatenate([[0], np.cumsum(counts_a[has])[:-1]])
+        costs[has] = (np.add.reduceat(traces, start, axis=1) / counts_a[has]).T
+        return costs
+
+    def _fill_lookahead_observations(self, obs: list[Any], stepping: IntArray) -> None:
+        """The observations of ``stepping`` with their lookahead part from one batched lookahead."""
+        costs = self._lookahead(stepping)
+        all_ready = self._lookahead(stepping, all_ready=True) if self.envs[0].receiver_warmup else None
+        for j, e in enumerate(stepping.tolist()):
+            extra = {"lookahead": _scaled_cost(costs[j])}
+            if all_ready is not None:
+                extra["lookahead_all_ready"] = _scaled_cost(all_ready[j])
+            obs[e] = self.envs[e]._observation(extra)
+
+    def _unbatched(self) -> list[Any]:
+        """The current observations, one per environment."""
+        from gymnasium.vector.utils import iterate
+
+        return list(iterate(self.observation_space, self._observations))
+
+    def _store(self, obs: list[Any]) -> None:
+        self._observations = concatenate(self.single_observation_space, obs, self._observations)
+
+    def _copy(self) -> Any:
+        return _deep(self._observations)
+
+
+def _deep(obs: Any) -> Any:
+    """A copy of a batched observation (array or dict of arrays)."""
+    if isinstance(obs, dict):
+        return {k: _deep(v) for k, v in obs.items()}
+    return np.copy(obs)
