@@ -644,6 +644,11 @@ class BodyModelConfig:
     (upper arm and forearm) 0.14 m^2, the head 0.03 m^2 -> 0.38 / 0.20 / 0.10 / 0.02. An arm whose line of sight to
     the transmitter or the receiver crosses the torso is attenuated by ``occlusion_loss_db`` per blocked leg (legs and
     head, below and above the torso, are never hidden by it).
+
+    ``range_std_m``: the spread of a detection's bistatic range about the body centre's (its centres' extent, the
+    front surface's bias included: an RMS) that the trackers' measurement model adds in quadrature to
+    ``SignalConfig.range_std_floor_m``; it depends on the signal chain, so each scenario sets the value measured on
+    its own (``scripts/body_spread.py``); 0 by default.
     """
 
     torso_depth_m: float = 0.25
@@ -659,6 +664,7 @@ class BodyModelConfig:
     arm_share: float = 0.10
     leg_share: float = 0.20
     occlusion_loss_db: float = 20.0
+    range_std_m: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("torso_depth_m", "torso_width_m", "hip_height_m"):
@@ -674,6 +680,7 @@ class BodyModelConfig:
             "arm_share",
             "leg_share",
             "occlusion_loss_db",
+            "range_std_m",
         ):
             _non_negative("BodyModelConfig", name, getattr(self, name))
         total = self.torso_share + self.head_share + 2.0 * (self.arm_share + self.leg_share)
