@@ -248,31 +248,21 @@ class UWBVectorEnv(VectorEnv):
     def _lookahead(self, envs: IntArray, all_ready: bool = False) -> FloatArray:
         """``(E, A)`` the lookahead costs of the environments ``envs`` (``lookahead.lookahead_costs``), batched."""
         A = len(self.plans)
-        xs, Ps, counts, ready = [], [], [], []
-        for e in envs.tolist():
-            env = self.envs[e]
-            k = env.sim.k + 1
-            pred = env.sim.tracker.scored_prediction(k * env.cfg.sensing.scan_period_s, k)
-            counts.append(0 if pred is None else pred.x.shape[0])
-            if pred is not None:
-                xs.append(pred.x)
-                Ps.append(pred.P)
-                r = env.ready_rx
-                ready.append(np.broadcast_to(np.ones(self.sensor.n_rx, bool) if r is None or all_ready else r,
-                                             (pred.x.shape[0], self.sensor.n_rx)))  # fmt: skip
+        period = self.envs[0].cfg.sensing.scan_period_s
+        ks = np.array([self.envs[e].sim.k + 1 for e in envs.tolist()], np.int64)
+        x, P, counts_a = self._tracker.scored_predictions(envs, ks * period, ks)
         costs = np.zeros((envs.size, A))
-        if not xs:
+        if not x.shape[0]:
             return costs
-        x, P = np.concatenate(xs), np.concatenate(Ps)
         first = self.envs[0]
         delivering = None
         if first.receiver_warmup and not all_ready:
             listening = np.array([p.active_rx for p in self.plans])  # (A, R)
-            delivering = listening[:, None, :] & np.concatenate(ready)[None]
+            ready = np.array([self.envs[e]._ready_rx for e in envs.tolist()])  # (E, R)
+            delivering = listening[:, None, :] & np.repeat(ready, counts_a, axis=0)[None]
         traces = position_trace(
             expected_posterior(x, P, self.sensor, first.sim.tracker, self.plans, first.lookahead_q2, delivering)
         )  # (A, N)
-        counts_a = np.array(counts)
         has = counts_a > 0
         start = np.concatenate([[0], np.cumsum(counts_a[has])[:-1]])
         costs[has] = (np.add.reduceat(traces, start, axis=1) / counts_a[has]).T

@@ -102,6 +102,49 @@ class BatchedTracker:
         for tr in trs:  # track management: per environment (module docstring)
             tr._confirm_and_prune()
 
+    def scored_predictions(
+        self, which: IntArray, times_s: FloatArray, scan_indices: IntArray
+    ) -> tuple[FloatArray, FloatArray, IntArray]:
+        """Every environment's ``Tracker.scored_prediction`` at its next scan, in one compiled prediction.
+
+        ``which`` ``(E,)`` the environments, ``times_s``, ``scan_indices`` their next scan. Returns the scored tracks'
+        combined x ``(n, 6)``, P ``(n, 6, 6)`` concatenated, and each environment's count ``(E,)`` (0: no track).
+        """
+        counts = np.zeros(which.size, np.int64)
+        parts: list[tuple[FloatArray, ...]] = []
+        groups: dict[tuple[float, bytes], list[int]] = {}
+        for j, e in enumerate(which.tolist()):
+            tr = self.trackers[e]
+            t = tr.tracks
+            if not len(t):
+                continue
+            keep = t.confirmed if t.confirmed.any() else ~t.confirmed
+            mu, active, x, P = t.mu[keep], t.active[keep], t.x[keep], t.P[keep]  # copies
+            counts[j] = mu.shape[0]
+            k = int(scan_indices[j])
+            mask = tr._active_mask(k)
+            if tr._time is not None and (active != mask).any():  # VS-IMM set switch: the tracker's own rule
+                mu, _, x, P = tr._predict_models(mu, active, x, P, float(times_s[j]) - tr._time, k)
+            elif tr._time is not None:
+                dt = float(times_s[j]) - tr._time
+                groups.setdefault((round(dt, 12), mask.tobytes()), []).append(len(parts))
+                parts.append((mu, x, P, dt, mask, tr))
+                continue
+            parts.append((mu, x, P, 0.0, mask, None))
+        if not parts:
+            return np.zeros((0, 6)), np.zeros((0, 6, 6)), counts
+        mu, x, P = (np.concatenate([q[i] for q in parts]) for i in range(3))
+        start = _starts([q[0].shape[0] for q in parts])
+        for members in groups.values():
+            _, _, _, dt, mask, tr = parts[members[0]]
+            Pi, F, Q = tr._restricted_matrices(dt, mask)
+            rows = np.concatenate([np.arange(start[i], start[i + 1]) for i in members])
+            mu_g, x_g, P_g = mu[rows], x[rows], P[rows]  # copies, predicted in place
+            compiled.predict_models(mu_g, Pi, x_g, P_g, F, Q, tr._active_index(mask))
+            mu[rows], x[rows], P[rows] = mu_g, x_g, P_g
+        xc, Pc = compiled.combine(mu, x, P)
+        return xc, Pc, counts
+
     # --------------------------------------------------------------------------------------------- stages
     def _initiate(
         self,
@@ -252,17 +295,23 @@ class BatchedTracker:
         for e, dets in enumerate(detections):
             for d in dets:
                 by_pair.setdefault((d.tx, d.rx), []).append((e, d))
+        has_tracks = (start[1:] > start[:-1]).tolist()
+        floor2 = cfg.range_rate_noise_floor_mps**2
         # each environment's detections are sorted by pair, so the sorted pairs keep every environment's order
         for key in sorted(by_pair):
             members = by_pair[key]
-            upd = [(e, trs[e]._with_floor(d)) for e, d in members if start[e + 1] > start[e] and len(d)]
-            taken = {}
+            upd = [(e, d) for e, d in members if has_tracks[e] and len(d)]
+            got, det_start, row = None, None, {}
             if upd:
                 envs = np.array([e for e, _ in upd], np.int64)
                 dets = [d for _, d in upd]
                 names = dets[0].measurement_names
                 kinds, wm, wc, sigma_scale, use_ukf = trs[upd[0][0]].compiled_filter_args(names)
                 det_start = _starts([len(d) for d in dets])
+                R = np.concatenate([d.R for d in dets]).astype(float)  # a copy: the floor is added to it
+                if floor2 > 0.0 and "range_rate" in names:  # Tracker._with_floor
+                    j = names.index("range_rate")
+                    R[:, j, j] += floor2
                 pd_pair = pd[key] if pd else np.full(start[-1], cfg.detection_probability)
                 tr0 = trs[upd[0][0]]
                 got, ok = compiled.receiver_update_batch(
@@ -275,7 +324,7 @@ class BatchedTracker:
                     fields["existence"],
                     pd_pair,
                     np.ascontiguousarray(np.concatenate([d.z for d in dets]), dtype=float),
-                    np.ascontiguousarray(np.concatenate([d.R for d in dets]), dtype=float),
+                    R,
                     np.maximum(np.concatenate([d.clutter_intensity for d in dets]), cfg.min_clutter_intensity),
                     det_start,
                     kinds,
@@ -292,10 +341,11 @@ class BatchedTracker:
                 )
                 if not ok:
                     raise np.linalg.LinAlgError("tracker update: a covariance is not positive definite")
-                taken = {e: got[det_start[j] : det_start[j + 1]] for j, e in enumerate(envs.tolist())}
+                free = ~got
+                row = {e: j for j, e in enumerate(envs.tolist())}
             for e, d in members:
-                used = taken.get(e)
-                unused[e].append((d, np.ones(len(d), bool) if used is None else ~used))
+                j = row.get(e)
+                unused[e].append((d, np.ones(len(d), bool) if j is None else free[det_start[j] : det_start[j + 1]]))
         for e, tr in enumerate(trs):
             tr.tracks.existence = fields["existence"][start[e] : start[e + 1]].copy()
         return unused
@@ -343,12 +393,12 @@ def _range_only_candidates(rs, vs, counts, gtx, grx, nu, area, starts, residual_
     if nu == 2:
         for a in range(G):
             for b in range(a + 1, G):
-                combos.append((a, b, -1))
+                combos.append((a, b, -1))  # noqa: PERF401 (a typed numba list)
     else:
         for a in range(G):
             for b in range(a + 1, G):
                 for c in range(b + 1, G):
-                    combos.append((a, b, c))
+                    combos.append((a, b, c))  # noqa: PERF401 (a typed numba list)
     shared = nu == 2
     if shared:
         for a, b, _ in combos:
@@ -388,11 +438,11 @@ def _range_only_candidates(rs, vs, counts, gtx, grx, nu, area, starts, residual_
         nc = counts[c] if c >= 0 else 1
         for i in range(counts[a]):
             for j in range(counts[b]):
-                for l in range(nc):
+                for h in range(nc):
                     r[k, 0], v[k, 0], t[k, 0], x[k, 0] = rs[a, i], vs[a, i], gtx[a], grx[a]
                     r[k, 1], v[k, 1], t[k, 1], x[k, 1] = rs[b, j], vs[b, j], gtx[b], grx[b]
                     if c >= 0:
-                        r[k, 2], v[k, 2], t[k, 2], x[k, 2] = rs[c, l], vs[c, l], gtx[c], grx[c]
+                        r[k, 2], v[k, 2], t[k, 2], x[k, 2] = rs[c, h], vs[c, h], gtx[c], grx[c]
                     k += 1
     p, cov, cost = ellipse_intersection(r, v, t, x, starts, 15)
     keep = np.zeros(n_rows, np.bool_)
