@@ -191,8 +191,8 @@ class UWBVectorEnv(VectorEnv):
         return tuple(getattr(env, name) for env in self.envs)
 
     def close_extras(self, **kwargs: Any) -> None:
-        """Close every environment."""
-        for env in self.envs:
+        """Close every environment (none if construction failed before they were built)."""
+        for env in getattr(self, "envs", ()):
             env.close()
 
     # ------------------------------------------------------------------------------------------------ internals
@@ -206,7 +206,10 @@ class UWBVectorEnv(VectorEnv):
             bad = ~self._mask[a]
         if bad.any():
             e = int(np.flatnonzero(bad)[0])
-            self.envs[e]._check_action(a[e])  # raises with the single env's message
+            try:
+                self.envs[e]._check_action(int(a[e]))  # raises with the single env's message
+            except ValueError as err:
+                raise ValueError(f"actions[{e}]: {err}") from None
         return a.astype(np.int64)
 
     def _scan(self, envs: IntArray, actions: IntArray) -> None:

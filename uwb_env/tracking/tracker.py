@@ -121,6 +121,7 @@ class Tracker(GaussianLookahead):
         self.r = len(cfg.models)
         self.transition = np.array(cfg.transition, dtype=float)
         self._masks: dict[tuple[str, ...], BoolArray] = {}
+        self._mask_at: dict[int, BoolArray] = {}  # cfg.active_models is a function of the scan index (frozen cfg)
         self._indices: dict[bytes, IntArray] = {}
         self._restricted: dict[tuple[float, bytes], tuple[FloatArray, FloatArray, FloatArray]] = {}
         self._matrices: dict[float, tuple[FloatArray, FloatArray]] = {}
@@ -154,12 +155,15 @@ class Tracker(GaussianLookahead):
         self._pd_cache: dict[tuple[int, int], FloatArray] = {}
 
     def _active_mask(self, scan_index: int) -> BoolArray:
-        """``(r,)`` the models active at this scan (cached per set; read-only)."""
-        names = self.cfg.active_models(scan_index)
-        mask = self._masks.get(names)
+        """``(r,)`` the models active at this scan (cached per scan index and per set; read-only)."""
+        mask = self._mask_at.get(scan_index)
         if mask is None:
-            mask = self._masks[names] = np.array([n in names for n in self.model_names])
-            mask.flags.writeable = False
+            names = self.cfg.active_models(scan_index)
+            mask = self._masks.get(names)
+            if mask is None:
+                mask = self._masks[names] = np.array([n in names for n in self.model_names])
+                mask.flags.writeable = False
+            self._mask_at[scan_index] = mask
         return mask
 
     def _active_index(self, mask: BoolArray) -> IntArray:
