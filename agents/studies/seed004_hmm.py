@@ -65,19 +65,21 @@ class Knobs:
     reverb_scale: float = 1.0
     clutter_scale: float = 1.0
     gain_drift_db: float = CFG.gain_drift_db
+    inroom_clutter: float = 0.0
 
 
-def rooms(reverb_scale: float = 1.0, clutter_scale: float = 1.0) -> dict[str, RoomConfig]:
+def rooms(knobs: Knobs = Knobs()) -> dict[str, RoomConfig]:
     """Our stand-ins for the seed's rooms (Fig. 7 is not legible in the text: sizes and radio spots are ours)."""
+    reverb_scale, clutter_scale = knobs.reverb_scale, knobs.clutter_scale
     return {
         "3325": RoomConfig(
             "3325", (6.0, 5.0), np.array([[-2.8, -2.3], [2.8, -2.3], [2.8, 2.3], [-2.8, 2.3]]), point_grid(5, 4),
-            reverb_scale=reverb_scale, clutter_rate=1.5 * clutter_scale,
+            reverb_scale=reverb_scale, clutter_rate=1.5 * clutter_scale, inroom_clutter_rate=knobs.inroom_clutter,
         ),
         "1208": RoomConfig(
             "1208", (7.2, 6.0), np.array([[-3.4, -2.8], [3.4, -2.8], [3.4, 2.8], [-3.4, 2.8]]), point_grid(6, 5),
             diffuse_ratio_db=-3.0, decay_ns=15.0, arrival_per_ns=1.0, clutter_rate=1.0 * clutter_scale,
-            reverb_scale=reverb_scale,
+            reverb_scale=reverb_scale, inroom_clutter_rate=knobs.inroom_clutter,
         ),
     }  # fmt: skip
 
@@ -109,7 +111,7 @@ def simulate(seed: int, knobs: Knobs) -> dict[str, RoomRun]:
     rng = np.random.default_rng(seed)
     out = {}
     cfg = dataclasses.replace(CFG, gain_drift_db=knobs.gain_drift_db)
-    for name, room in rooms(knobs.reverb_scale, knobs.clutter_scale).items():
+    for name, room in rooms(knobs).items():
         ld = simulate_room(rng, room, cfg)
         obs = hmm.kl_observations(bin_energy(ld.cal, CFG)[:, None], bin_energy(ld.test, CFG))[..., 1:]
         M, P = ld.k_true.shape
@@ -158,7 +160,7 @@ def run_realisation(seed: int, knobs: Knobs) -> dict:
             r[key] = _err(_bins(hmm.first_crossing(O_te, gamma)[0]), k_te)
         r["zetik"] = _err(test.k_zetik.ravel(), k_te)
         # localization in the test room
-        room = rooms(knobs.reverb_scale, knobs.clutter_scale)[te]
+        room = rooms(knobs)[te]
         M, P = test.k_true.shape
         alpha = hmm.changed_posterior(O_te, final).reshape(M, P, N_OBS).transpose(1, 0, 2)  # (P, M, N)
         k_hat = hmm.hmm_delay(alpha.reshape(-1, N_OBS)).reshape(P, M)
@@ -189,6 +191,7 @@ def main() -> None:
     ap.add_argument("--reverb-scale", type=float, default=1.0, help="multiplies the person's reverberant share")
     ap.add_argument("--clutter-scale", type=float, default=1.0, help="multiplies the clutter-change rate")
     ap.add_argument("--gain-drift-db", type=float, default=CFG.gain_drift_db, help="session gain drift std [dB]")
+    ap.add_argument("--inroom-clutter", type=float, default=0.0, help="in-room clutter changes per session (rate)")
     ap.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1))
     ap.add_argument("--out", default="results/seed004-hmm")
     args = ap.parse_args()
@@ -196,7 +199,7 @@ def main() -> None:
     out.mkdir(parents=True, exist_ok=True)
     seeds = list(range(args.realisations))
     with ProcessPoolExecutor(args.workers) as pool:
-        knobs = Knobs(args.reverb_scale, args.clutter_scale, args.gain_drift_db)
+        knobs = Knobs(args.reverb_scale, args.clutter_scale, args.gain_drift_db, args.inroom_clutter)
         runs = list(pool.map(run_realisation, seeds, [knobs] * len(seeds)))
     cat = {exp: {key: np.concatenate([r[exp][key] for r in runs], axis=-1) for key in runs[0][exp] if
                  not key.startswith(("loglik", "ftc sq"))} for exp in EXPERIMENTS}  # fmt: skip
@@ -205,7 +208,7 @@ def main() -> None:
         "",
         f"Command: `python scripts/seed004_hmm.py --realisations {args.realisations} --reverb-scale "
         f"{args.reverb_scale:g} --clutter-scale {args.clutter_scale:g} --gain-drift-db {args.gain_drift_db:g} "
-        f"--out {out}`",
+        f"--inroom-clutter {args.inroom_clutter:g} --out {out}`",
         "",
         "Simulated stand-ins for the seed's rooms (uwb_env/sensing/signal/cir.py); every realisation a fresh static "
         "channel, clutter and person draws. RMSE pools every link and point of every realisation. Misses (no "

@@ -205,6 +205,7 @@ def baum_welch(
     var_floor: float = 1e-3,
     prob_floor: float = 0.0,
     fix_p10: float | None = None,
+    fix_pi: bool = False,
 ) -> BaumWelchResult:
     """Baum-Welch re-estimation of lambda on sequences ``obs`` ``(B, N)`` sharing it (Rabiner, eqs. 40a-c, 109-110).
 
@@ -213,7 +214,8 @@ def baum_welch(
     than ``tol``. ``prob_floor`` keeps pi and P away from 0 (0: none; a floor makes the M-step inexact).
     ``fix_p10``: hold P_10 = eps (and P_11 = 1 - eps) fixed, the seed's single-change model (section 2.4); the
     M-step over the remaining parameters is still exact (row 0 of P is re-estimated on its own), so the likelihood
-    still never decreases. None: re-estimate P_10 as well.
+    still never decreases. None: re-estimate P_10 as well. ``fix_pi``: hold pi at the initial lambda's (the M-step
+    over the rest is still exact).
     """
     if emission not in ("soft", "hard"):
         raise ValueError(f"emission={emission!r}: 'soft' or 'hard'")
@@ -231,7 +233,7 @@ def baum_welch(
         # xi_k(i, j) summed over k and sequences
         lxi = la[:, :-1, :, None] + _log(p.P) + (log_b[:, 1:] + lb[:, 1:])[:, :, None, :] - ll[:, None, None, None]
         xi = np.exp(lxi).sum(axis=(0, 1))  # (2, 2)
-        pi = gamma[:, 0].mean(axis=0)
+        pi = p.pi.copy() if fix_pi else gamma[:, 0].mean(axis=0)
         P = xi / xi.sum(axis=1, keepdims=True)
         if fix_p10 is not None:
             P[1] = (fix_p10, 1.0 - fix_p10)
