@@ -161,11 +161,11 @@ class UWBVectorEnv(VectorEnv):
                     obs[e] = env._observation()
         if self.envs[0].include_lookahead:
             self._fill_lookahead_observations(obs, stepping)
-        for e in range(n):
-            if self.autoreset_mode == AutoresetMode.SAME_STEP and (truncated[e] or terminated[e]):
+        if self.autoreset_mode == AutoresetMode.SAME_STEP:
+            for e in np.flatnonzero(truncated | terminated).tolist():
                 infos = self._add_info(infos, {"final_obs": obs[e], "final_info": env_infos[e]}, e)
                 obs[e], env_infos[e] = self.envs[e].reset()
-            infos = self._add_info(infos, env_infos[e], e)
+        infos.update(_stacked_infos(env_infos))
         self._autoreset = terminated | truncated
         self._store(obs)
         return self._copy(), rewards, terminated, truncated, infos
@@ -292,6 +292,23 @@ class UWBVectorEnv(VectorEnv):
 
     def _copy(self) -> Any:
         return _deep(self._observations)
+
+
+def _stacked_infos(infos: list[dict[str, Any]]) -> dict[str, Any]:
+    """Every env's info (the same keys, shapes and types: ``UWBSchedulingEnv``) stacked, with all-True ``_key`` masks.
+
+    What ``VectorEnv._add_info`` builds env by env (its dtypes: a Python scalar's type, an array's dtype), at once.
+    """
+    n = len(infos)
+    out: dict[str, Any] = {}
+    for key, value in infos[0].items():
+        values = [info[key] for info in infos]
+        if isinstance(value, np.ndarray):
+            out[key] = np.stack(values).astype(value.dtype, copy=False)
+        else:
+            out[key] = np.array(values, dtype=type(value))
+        out[f"_{key}"] = np.ones(n, dtype=np.bool_)
+    return out
 
 
 def _deep(obs: Any) -> Any:

@@ -41,10 +41,16 @@ BatchPdModel = Callable[[int, int, int, FloatArray], FloatArray]
 """``(tx, rx, waveform, positions (n, 2)) -> Pd (n,)``: the sensor model's detection probability (capped)."""
 
 
+_RATE_COLUMN: dict[tuple[str, ...], int] = {}
+
+
 def _rate_column(det: Detections) -> int:
-    """The range-rate column of ``det``'s measurements (-1: none)."""
+    """The range-rate column of ``det``'s measurements (-1: none; cached per measurement set)."""
     names = det.measurement_names
-    return names.index("range_rate") if "range_rate" in names else -1
+    col = _RATE_COLUMN.get(names)
+    if col is None:
+        col = _RATE_COLUMN[names] = names.index("range_rate") if "range_rate" in names else -1
+    return col
 
 
 def _flat(out: tuple) -> tuple:
