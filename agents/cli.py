@@ -216,6 +216,11 @@ def train_parser() -> argparse.ArgumentParser:
     add_pairs(ap, "--hyper", "hyper", "preset entry (algorithm block or common); repeatable, several per flag")
     add_pairs(ap, "--env-kwarg", "env_kwargs", "argument of gymnasium.make; repeatable, several per flag")
     ap.add_argument("--tensorboard", action="store_true", help="also log to TensorBoard (needs tensorboard)")
+    ap.add_argument(
+        "--vectorize",
+        help="the training envs: sb3 dummy, subproc (default: the preset's vec_env) or batched (one batched vector "
+        "env, parametric fidelity + imm-lmipda only); rllib sync (default) or batched",
+    )
     ap.add_argument("--no-progress", action="store_true")
     rllib = ap.add_argument_group("--engine rllib")
     rllib.add_argument("--env-runners", type=count(1), help="Ray actors sampling the env, >= 1 (default 2)")
@@ -272,6 +277,7 @@ def train_rllib_main(ap: argparse.ArgumentParser, args: argparse.Namespace) -> N
             envs_per_runner=1 if args.envs_per_runner is None else args.envs_per_runner,
             checkpoint_every=5 if args.checkpoint_every is None else args.checkpoint_every,
             address=args.address,
+            vectorize=args.vectorize or "sync",
         )
     except ValueError as e:
         ap.error(str(e))
@@ -303,6 +309,7 @@ def train_main(argv: Sequence[str] | None = None) -> None:
             env_kwargs=parse_overrides(args.env_kwargs, "--env-kwarg"),
             overrides=parse_overrides(args.hyper, "--hyper"),
             tensorboard=args.tensorboard,
+            vectorize=args.vectorize,
         )
         model = rl.train(cfg, resume=args.resume, progress=not args.no_progress)
     except (ValueError, FolderLocked) as e:

@@ -8,6 +8,9 @@ over a cluster started with ``ray start --head`` and joined with ``--address``),
   ``action_masks()`` are never sampled, explored or chosen;
 * :class:`MaskedUWBEnv`: the env as RLlib sees it, ``Dict(action_mask, observations)``; the class travels to the
   runners by reference, so each runner imports uwb_env itself;
+* :class:`MaskedUWBVectorEnv` (``--vectorize batched``): its vector counterpart over the batched
+  ``uwb_env.envs.vector.UWBVectorEnv`` (the runner's envs stepped together, each stage batched), built by
+  :func:`masked_uwb_env` when RLlib's runner asks for ``num_envs`` (``gym_env_vectorize_mode="vector_entry_point"``);
 * :class:`MaskedPPOTorchRLModule` (PPO's default module, logits of invalid actions -inf: RLlib's action-masking
   example) and :class:`MaskedDQNTorchRLModule` (DQN's, Q-values of invalid actions -inf);
 * :func:`train_rllib`: builds (or resumes from the newest readable checkpoint: module, optimiser, iteration and
@@ -52,6 +55,7 @@ from uwb_env.agents.rl.training import (
     check_run_folder,
     keep_rows_up_to,
     load_preset,
+    make_batched,
 )
 from uwb_env.agents.storage import FolderLock, atomic_write_text, move_aside
 from uwb_env.envs import ENV_IDS
@@ -62,6 +66,8 @@ LEARNER_MODULE = Path("learner_group", "learner", "rl_module", "default_policy")
 PROGRESS_COLUMNS = ["training_iteration", "timesteps", "episode_return_mean", "episode_len_mean", "loss", "time_s"]
 MODEL_KEYS = ("fcnet_hiddens", "fcnet_activation")  # --hyper keys that go to the module's model_config
 COMMON_KEYS = ("eval_episodes",)
+VECTORIZE = {"sync": "sync", "batched": "vector_entry_point"}  # --vectorize -> gym_env_vectorize_mode
+MASKED_ENV_NAME = "uwb_env-masked"  # masked_uwb_env in RLlib's env registry (it takes classes or registered names)
 
 
 def _import_rllib():
@@ -107,6 +113,57 @@ class MaskedUWBEnv(gym.Env):
 
     def close(self) -> None:  # noqa: D102 - gym API
         self.env.close()
+
+
+class MaskedUWBVectorEnv(gym.vector.VectorEnv):
+    """:class:`MaskedUWBEnv`'s vector counterpart: ``MaskedUWBVectorEnv({"env_id", "env_kwargs", "num_envs"})``.
+
+    The batched ``UWBVectorEnv`` (``gymnasium.make_vec(..., vectorization_mode="vector_entry_point")``, its default
+    ``NEXT_STEP`` autoreset, which RLlib's runner expects) with observations ``Dict(action_mask, observations)``
+    stacked over the envs, the masks its ``action_masks()`` as float32. Env e gives what ``MaskedUWBEnv`` does with
+    the same seed and actions. Parametric fidelity and ``imm-lmipda`` tracker only (``ValueError`` otherwise).
+    """
+
+    def __init__(self, config: dict[str, Any]) -> None:
+        config = dict(config)
+        kwargs = dict(config.get("env_kwargs") or {})
+        self.env = gym.make_vec(config["env_id"], int(config["num_envs"]), "vector_entry_point", **kwargs)
+        self.num_envs = self.env.num_envs
+        self.metadata = {"autoreset_mode": self.env.metadata["autoreset_mode"], "render_modes": []}
+        self.render_mode = None
+        self.single_action_space = self.env.single_action_space
+        self.action_space = self.env.action_space
+        n = int(self.single_action_space.n)
+        mask = gym.spaces.Box(0.0, 1.0, (n,), np.float32)
+        self.single_observation_space = gym.spaces.Dict(
+            {"action_mask": mask, "observations": self.env.single_observation_space}
+        )
+        self.observation_space = gym.vector.utils.batch_space(self.single_observation_space, self.num_envs)
+
+    def _obs(self, obs: Any) -> dict[str, Any]:
+        return {"action_mask": self.env.unwrapped.action_masks().astype(np.float32), "observations": obs}
+
+    def reset(self, *, seed: Any = None, options: dict[str, Any] | None = None):  # noqa: D102 - gym API
+        obs, info = self.env.reset(seed=seed, options=options)
+        return self._obs(obs), info
+
+    def step(self, actions: Any):  # noqa: D102 - gym API
+        obs, rewards, terminated, truncated, info = self.env.step(np.asarray(actions))
+        return self._obs(obs), rewards, terminated, truncated, info
+
+    def close_extras(self, **kwargs: Any) -> None:  # noqa: D102 - gym API
+        self.env.close()
+
+
+def masked_uwb_env(config: dict[str, Any]) -> gym.Env | gym.vector.VectorEnv:
+    """RLlib's env creator (``--vectorize batched``): the vector env when the config has ``num_envs``.
+
+    RLlib's runner calls it with ``num_envs`` for its ``vector_entry_point`` (:class:`MaskedUWBVectorEnv`), without
+    for one env (:class:`MaskedUWBEnv`).
+    """
+    if "num_envs" in config:
+        return MaskedUWBVectorEnv(config)
+    return MaskedUWBEnv(config)
 
 
 try:  # the module classes need RLlib; without it the engine refuses to run (``_import_rllib``)
@@ -215,6 +272,7 @@ class RLlibTrainConfig:
     envs_per_runner: int = 1
     checkpoint_every: int = 5  # training iterations
     address: str | None = None  # a Ray cluster to join ("auto", "ray://host:10001"); None: a local Ray
+    vectorize: str = "sync"  # a runner's envs: "sync" (gymnasium's SyncVectorEnv) or "batched" (MaskedUWBVectorEnv)
 
     def __post_init__(self) -> None:
         self.out = Path(self.out)
@@ -230,6 +288,9 @@ class RLlibTrainConfig:
         for name in ("env_kwargs", "overrides"):
             if not isinstance(getattr(self, name), dict):
                 raise ValueError(f"{name}={getattr(self, name)!r}: must be a mapping")
+        if self.vectorize not in VECTORIZE:
+            raise ValueError(f"vectorize={self.vectorize!r} (--vectorize): with engine='rllib' must be one of "
+                             f"{sorted(VECTORIZE)}")  # fmt: skip
         if self.address is not None and (not isinstance(self.address, str) or not self.address.strip()):
             raise ValueError(f"address={self.address!r}: must be a Ray address (auto, ray://host:10001) or None")
         if self.out.exists() and not self.out.is_dir():
@@ -292,17 +353,24 @@ def resolve_rllib(cfg: RLlibTrainConfig) -> dict[str, Any]:
 def build_config(cfg: RLlibTrainConfig, hyper: dict[str, Any]):
     """The ``AlgorithmConfig`` of a run (env, runners, hyper-parameters, module, seed)."""
     from ray.rllib.core.rl_module.rl_module import RLModuleSpec
+    from ray.tune.registry import register_env
 
     configs = _import_rllib()
+    if cfg.vectorize == "batched":  # RLlib gives a registered creator's runners vector_entry_point=creator(num_envs)
+        register_env(MASKED_ENV_NAME, masked_uwb_env)
     training = {k: v for k, v in hyper.items() if k not in MODEL_KEYS and k not in COMMON_KEYS}
     model = {k: hyper[k] for k in MODEL_KEYS if k in hyper}
     config = (
         configs[cfg.algo]()
-        .environment(MaskedUWBEnv, env_config={"env_id": cfg.env_id, "env_kwargs": cfg.env_kwargs})
+        .environment(
+            MaskedUWBEnv if cfg.vectorize == "sync" else MASKED_ENV_NAME,
+            env_config={"env_id": cfg.env_id, "env_kwargs": cfg.env_kwargs},
+        )
         .env_runners(
             num_env_runners=cfg.env_runners,
             num_envs_per_env_runner=cfg.envs_per_runner,
             rollout_fragment_length="auto",
+            gym_env_vectorize_mode=VECTORIZE[cfg.vectorize],
         )
         .training(**training)
         .debugging(seed=cfg.seed)
@@ -461,16 +529,19 @@ def train_rllib(cfg: RLlibTrainConfig, resume: bool = False, progress: bool = Tr
 
     Everything is checked before anything is written, as with the SB3 engine: the hyper-parameters, the env
     arguments, the run folder (locked while training; a folder holding a run is refused unless ``resume``; a
-    resumed run must match its ``run.yaml``, ``timesteps``, ``env_runners``, ``envs_per_runner`` and
-    ``checkpoint_every`` may change). ``progress``: one line per iteration on stderr.
+    resumed run must match its ``run.yaml``, ``timesteps``, ``env_runners``, ``envs_per_runner``, ``vectorize``
+    (the same episodes either way) and ``checkpoint_every`` may change). ``progress``: one line per iteration on
+    stderr.
     """
     _import_rllib()
     hyper = resolve_rllib(cfg)
     check_env(cfg)  # type: ignore[arg-type]  (reads env_id and env_kwargs)
+    if cfg.vectorize == "batched":
+        make_batched(cfg.env_id, 1, cfg.env_kwargs).close()  # ValueError naming --vectorize batched
     run_yaml = {"engine": "rllib", "env_id": cfg.env_id, "algo": cfg.algo, "seed": cfg.seed,
                 "timesteps": cfg.timesteps, "env_kwargs": cfg.env_kwargs, "hyper": hyper,
                 "env_runners": cfg.env_runners, "envs_per_runner": cfg.envs_per_runner,
-                "checkpoint_every": cfg.checkpoint_every}  # fmt: skip
+                "vectorize": cfg.vectorize, "checkpoint_every": cfg.checkpoint_every}  # fmt: skip
     out = cfg.out
     with FolderLock(out, "training"):
         check_run_folder(out, run_yaml, resume, ("engine", "env_id", "algo", "seed", "env_kwargs", "hyper"))

@@ -7,7 +7,8 @@ The pieces an RL-Zoo user expects, kept small:
 * :func:`load_preset`: versioned YAML hyper-parameters per env id (``agents/rl/presets/<Id>.yaml``), one block per
   algorithm and a ``common`` block (vector envs, normalisation, evaluation and checkpoint intervals);
 * :func:`make_vec_env`: ``n_envs`` seeded copies (``DummyVecEnv`` or ``SubprocVecEnv``, each wrapped in
-  ``Monitor``) with ``VecNormalize`` when the preset asks for it;
+  ``Monitor``; or, ``vec_env: batched`` / ``--vectorize batched``, the batched vector env under
+  :class:`~.batched_vec_env.BatchedVecEnv` in ``VecMonitor``) with ``VecNormalize`` when the preset asks for it;
 * :class:`SchedulerEvalCallback`: every ``eval_freq`` steps the policy plays fixed evaluation seeds (never used for
   training) next to the myopic and round-robin schedulers, and the mean return and mean covariance trace of each are
   logged (``eval.csv``);
@@ -46,7 +47,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList, CheckpointCallback
 from stable_baselines3.common.logger import CSVOutputFormat, KVWriter, Logger, make_output_format
 from stable_baselines3.common.monitor import Monitor
-from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv, VecNormalize
+from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv, VecMonitor, VecNormalize
 from tqdm.auto import tqdm
 
 import uwb_env  # noqa: F401  (registers the env ids)
@@ -57,6 +58,17 @@ from uwb_env.envs import ENV_IDS
 ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "a2c": A2C, "dqn": DQN, "maskable-ppo": MaskablePPO}
 EVAL_SEED0 = 1_000_000  # evaluation seeds start here; training seeds are seed .. seed + n_envs - 1 (and resets)
 _CHECKPOINT = re.compile(r"rl_model_(\d+)_steps\.zip$")
+VEC_ENVS = ("dummy", "subproc", "batched")  # --vectorize / the preset's common.vec_env
+
+
+def make_batched(env_id: str, n_envs: int, env_kwargs: dict[str, Any]) -> VecEnv:
+    """The batched vector env as SB3's ``VecEnv``; ``ValueError`` naming ``--vectorize batched`` when unsupported."""
+    from uwb_env.agents.rl.batched_vec_env import make_batched_vec_env
+
+    try:
+        return make_batched_vec_env(env_id, n_envs, env_kwargs)
+    except ValueError as e:
+        raise ValueError(f"--vectorize batched with --env-kwarg {env_kwargs} on {env_id}: {e}") from e
 
 
 def load_preset(env_id: str, algo: str) -> dict[str, Any]:
@@ -83,7 +95,12 @@ def make_vec_env(
     vec_env: str = "dummy",
     normalize: dict[str, Any] | None = None,
 ) -> VecEnv:
-    """``n_envs`` copies of ``env_id`` (seeds ``seed + i``), in ``Monitor``, optionally under ``VecNormalize``."""
+    """``n_envs`` copies of ``env_id`` (seeds ``seed + i``), in ``Monitor``, optionally under ``VecNormalize``.
+
+    ``vec_env``: ``dummy`` / ``subproc`` (SB3's, each env in ``Monitor``) or ``batched`` (one batched
+    ``UWBVectorEnv`` under :class:`~.batched_vec_env.BatchedVecEnv` in ``VecMonitor``: the same episodes env by env,
+    parametric fidelity and ``imm-lmipda`` tracker only, ``ValueError`` naming ``--vectorize batched`` otherwise).
+    """
     kwargs = dict(env_kwargs or {})
 
     def factory(i: int):
@@ -94,10 +111,13 @@ def make_vec_env(
 
         return make
 
-    if vec_env not in ("dummy", "subproc"):
-        raise ValueError(f"vec_env={vec_env!r}: must be 'dummy' or 'subproc'")
-    fns = [factory(i) for i in range(n_envs)]
-    venv: VecEnv = SubprocVecEnv(fns, start_method="fork") if vec_env == "subproc" else DummyVecEnv(fns)
+    if vec_env not in VEC_ENVS:
+        raise ValueError(f"vec_env={vec_env!r}: must be one of {sorted(VEC_ENVS)}")
+    if vec_env == "batched":
+        venv: VecEnv = VecMonitor(make_batched(env_id, n_envs, kwargs))
+    else:
+        fns = [factory(i) for i in range(n_envs)]
+        venv = SubprocVecEnv(fns, start_method="fork") if vec_env == "subproc" else DummyVecEnv(fns)
     venv.seed(seed)
     if normalize:
         venv = VecNormalize(venv, **normalize)
@@ -326,8 +346,9 @@ def check_hyper(key: str, value: Any, preset_value: Any, algo: str) -> None:
         raise ValueError(f"--hyper {key}={value!r}: must be a number in [0, 1]")
     if key in ("learning_rate", "ent_coef", "vf_coef", "max_grad_norm", "tau") and (not number or value < 0):
         raise ValueError(f"--hyper {key}={value!r}: must be a number >= 0")
-    if key == "vec_env" and value not in ("dummy", "subproc"):
-        raise ValueError(f"--hyper vec_env={value!r}: must be 'dummy' or 'subproc'")
+    if key == "vec_env" and value not in VEC_ENVS:
+        raise ValueError(f"--hyper vec_env={value!r}: must be 'dummy' or 'subproc' (SB3's) or 'batched' (the batched "
+                         "vector env, as --vectorize batched)")  # fmt: skip
     if key == "normalize" and not (value is False or value is None or isinstance(value, dict)):
         raise ValueError(f"--hyper normalize={value!r}: must be false or a mapping of VecNormalize arguments")
     if preset_value is not None and type(preset_value) is bool and type(value) is not bool:
@@ -350,6 +371,7 @@ class TrainConfig:
     env_kwargs: dict[str, Any] = field(default_factory=dict)
     overrides: dict[str, Any] = field(default_factory=dict)  # replace preset entries ("n_envs", "learning_rate", ...)
     tensorboard: bool = False  # also log to <out>/tensorboard (needs the tensorboard package)
+    vectorize: str | None = None  # replaces the preset's common.vec_env: dummy, subproc or batched (--vectorize)
 
     def __post_init__(self) -> None:
         self.out = Path(self.out)
@@ -364,6 +386,8 @@ class TrainConfig:
         for name in ("env_kwargs", "overrides"):
             if not isinstance(getattr(self, name), dict):
                 raise ValueError(f"{name}={getattr(self, name)!r}: must be a mapping")
+        if self.vectorize is not None and self.vectorize not in VEC_ENVS:
+            raise ValueError(f"vectorize={self.vectorize!r} (--vectorize): must be one of {sorted(VEC_ENVS)}")
         if not isinstance(self.tensorboard, bool):
             raise ValueError(f"tensorboard={self.tensorboard!r}: must be true or false")
         if self.tensorboard and importlib.util.find_spec("tensorboard") is None:
@@ -380,6 +404,8 @@ def resolve(cfg: TrainConfig) -> tuple[dict[str, Any], dict[str, Any], int]:
         target = common if key in COMMON_KEYS else hyper
         check_hyper(key, value, target.get(key), cfg.algo)
         target[key] = value
+    if cfg.vectorize is not None:
+        common["vec_env"] = cfg.vectorize
     return common, hyper, preset["version"]
 
 
@@ -499,6 +525,8 @@ def train(cfg: TrainConfig, resume: bool = False, progress: bool = True) -> Base
     """
     common, hyper, version = resolve(cfg)
     check_env(cfg)
+    if common.get("vec_env") == "batched":
+        make_batched(cfg.env_id, 1, cfg.env_kwargs).close()  # refused before anything is written
     out = cfg.out
     run_yaml = {
         "env_id": cfg.env_id,
