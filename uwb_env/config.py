@@ -739,6 +739,20 @@ class SignalConfig:
     chirp pulse-train signal path (:class:`ChirpSignalConfig`). ``target_model``: ``point`` synthesises each target as
     one echo at its bistatic delay (the default), ``extended`` as the scattering centres of a walking person
     (:class:`BodyModelConfig` ``body``; impulse signal path only).
+
+    Seed 001's chain (through-wall, one transmitter between two receivers on a line; ``uwb_env.detection.
+    toa_association``, ``uwb_env.localization.couples``): ``background = "exponential-coherent"`` is the seed's
+    exponential averaging on the raw scans (b <- alpha b + (1 - alpha) x, the envelope of x - b detected; a common
+    clock: no alignment); ``normalization = "advance"`` the advance normalization before the CFAR (``"none"``:
+    none); ``toa_estimator = "interval"`` the seed's ToA of distributed targets (steps 1-3: a window of
+    ``toa_interval_samples`` W_p, at least ``toa_interval_threshold`` T_LIM detections in it, ToA = interval start -
+    T_LIM); ``network = "couples"`` localizes ToA couples of the transmitter's two receivers by ellipse intersection
+    (instead of seed 000's ``nu``-tuples): with ``toa_association`` the couples of the seed's ToA association (steps
+    4-7, widening 2 d / c + ``association_correction_s``; ``association_completion``: step 6, isolated ToAs completed
+    from the previous scan's couples), without it every Rx1 x Rx2 combination (the ghosts' source);
+    ``wall_compensation`` removes the known walls' excess delay from the couple's ranges before the
+    intersection.
+
     """
 
     sample_rate_hz: float = 16.4e9
@@ -758,7 +772,7 @@ class SignalConfig:
     envelope_lpf_s: float = 0.2e-9
     dp_threshold_ratio: float = 0.3
     dp_jump_back_s: float = 3e-9
-    background: Literal["empty_room", "exponential", "coherent"] = "empty_room"
+    background: Literal["empty_room", "exponential", "coherent", "exponential-coherent"] = "empty_room"
     background_alpha: float = 0.9
     align_scans: bool = True
     cfar: Literal["dtb", "ca", "g", "os"] = "dtb"
@@ -773,7 +787,7 @@ class SignalConfig:
     os_rank: int = 48
     cluster_distance_s: float = 65 / 16.4e9
     cluster_min_weight: int = 4
-    toa_estimator: Literal["median", "peak", "energy-detector"] = "peak"
+    toa_estimator: Literal["median", "peak", "energy-detector", "interval"] = "peak"
     ed_threshold_ratio: float = 0.95
     ed_false_alarm_probability: float = 0.01
     ed_pulse_integration: Literal["noncoherent", "coherent"] = "noncoherent"
@@ -789,6 +803,14 @@ class SignalConfig:
     chirp: ChirpSignalConfig = field(default_factory=ChirpSignalConfig)
     target_model: Literal["point", "extended"] = "point"
     body: BodyModelConfig = field(default_factory=BodyModelConfig)
+    normalization: Literal["none", "advance"] = "none"
+    toa_interval_samples: int = 15
+    toa_interval_threshold: int = 4
+    toa_association: bool = False
+    association_correction_s: float = 0.5e-9
+    association_completion: bool = True
+    network: Literal["nu-tuples", "couples"] = "nu-tuples"
+    wall_compensation: bool = False
 
     def __post_init__(self) -> None:
         for name in (
@@ -827,10 +849,20 @@ class SignalConfig:
         _in_range("SignalConfig", "background_alpha", self.background_alpha, 0.0, 1.0, closed="()")
         _in_range("SignalConfig", "dp_threshold_ratio", self.dp_threshold_ratio, 0.0, 1.0, closed="()")
         _in_range("SignalConfig", "cfar_pfa", self.cfar_pfa, 0.0, 0.5, closed="()")
-        _choice("SignalConfig", "background", self.background, ("empty_room", "exponential", "coherent"))
+        _choice(
+            "SignalConfig",
+            "background",
+            self.background,
+            ("empty_room", "exponential", "coherent", "exponential-coherent"),
+        )
         _choice("SignalConfig", "align_scans", self.align_scans, (True, False))
         _choice("SignalConfig", "cfar", self.cfar, ("dtb", "ca", "g", "os"))
-        _choice("SignalConfig", "toa_estimator", self.toa_estimator, ("median", "peak", "energy-detector"))
+        _choice(
+            "SignalConfig",
+            "toa_estimator",
+            self.toa_estimator,
+            ("median", "peak", "energy-detector", "interval"),
+        )
         _in_range("SignalConfig", "ed_threshold_ratio", self.ed_threshold_ratio, 0.0, 1.0, closed="()")
         _in_range("SignalConfig", "ed_false_alarm_probability", self.ed_false_alarm_probability, 0.0, 1.0, closed="(]")
         _choice("SignalConfig", "ed_pulse_integration", self.ed_pulse_integration, ("noncoherent", "coherent"))
@@ -844,6 +876,30 @@ class SignalConfig:
         _instance("SignalConfig", "chirp", self.chirp, ChirpSignalConfig, "a ChirpSignalConfig")
         _choice("SignalConfig", "target_model", self.target_model, ("point", "extended"))
         _instance("SignalConfig", "body", self.body, BodyModelConfig, "a BodyModelConfig")
+        _choice("SignalConfig", "normalization", self.normalization, ("none", "advance"))
+        _int_at_least("SignalConfig", "toa_interval_samples", self.toa_interval_samples, 1)
+        if not isinstance(self.toa_interval_threshold, int) or not (
+            1 <= self.toa_interval_threshold <= self.toa_interval_samples
+        ):
+            _fail(
+                "SignalConfig",
+                "toa_interval_threshold",
+                self.toa_interval_threshold,
+                f"an integer in [1, toa_interval_samples = {self.toa_interval_samples}]",
+            )
+        _choice("SignalConfig", "toa_association", self.toa_association, (True, False))
+        _choice("SignalConfig", "association_completion", self.association_completion, (True, False))
+        _non_negative("SignalConfig", "association_correction_s", self.association_correction_s)
+        _choice("SignalConfig", "network", self.network, ("nu-tuples", "couples"))
+        _choice("SignalConfig", "wall_compensation", self.wall_compensation, (True, False))
+        if self.toa_association and self.network != "couples":
+            _fail("SignalConfig", "toa_association", self.toa_association, "False unless network = 'couples'")
+        if self.network == "couples" and self.output != "positions":
+            _fail("SignalConfig", "network", self.network, "'nu-tuples' unless output = 'positions'")
+        if self.normalization != "none" and self.background == "coherent":
+            _fail("SignalConfig", "normalization", self.normalization, "'none' with background = 'coherent'")
+        if self.background == "exponential-coherent" and self.align_scans:
+            _fail("SignalConfig", "align_scans", self.align_scans, "False with background = 'exponential-coherent'")
 
 
 @dataclass(frozen=True, slots=True)

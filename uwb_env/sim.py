@@ -79,7 +79,8 @@ class Simulator:
                     if plan.active_rx[r]
                 ]
             )
-            pd = at_least(per_pair, self.cfg.sensing.signal.nu)
+            # a fused position needs that many receivers' ToAs: nu (seed 000's tuples) or 2 (seed 001's couples)
+            pd = at_least(per_pair, getattr(self.sensor, "position_receivers", self.cfg.sensing.signal.nu))
         return np.minimum(pd, tc.max_detection_probability)
 
     def reset(self, seed: int | np.random.SeedSequence | None) -> None:

@@ -12,7 +12,9 @@ registries live here:
   scan's decisions into ToAs. ``median`` and ``peak`` (seed 000's 1-D clustering and seed 003's peak fit) carry a
   kernel ``estimate(decisions, d, sig, fs) -> (row, toa [samples], weight, peak)``; an estimator that replaces the
   whole CFAR chain (``energy-detector``: seed 002, run by the sensor's own chain) registers ``estimate=None`` and
-  ``replaces_cfar=True``. Further estimators (seed 001's interval ToA, seed 004's HMM) register here the same way.
+  ``replaces_cfar=True``. ``interval``: seed 001's ToA of distributed targets (:mod:`uwb_env.detection.
+  toa_association`). Further estimators (seed 004's HMM) register here the same way.
+* :data:`NORMALIZATIONS` (``sensing.signal.normalization``): ``none`` or seed 001's ``advance`` normalization.
 
 Lookup of an unknown name raises ``ValueError`` naming the field, the value and the allowed names.
 """
@@ -33,6 +35,7 @@ from uwb_env.detection.cfar import (
     os_threshold_factor,
 )
 from uwb_env.detection.clustering import cluster_detections
+from uwb_env.detection.toa_association import advance_normalization, interval_toas
 from uwb_env.typing import BoolArray, FloatArray, IntArray
 
 if TYPE_CHECKING:  # the config is read, never imported at run time (detection sits below sensing)
@@ -180,9 +183,26 @@ def _clustering(use: str) -> Callable[[BoolArray, FloatArray, SignalConfig, floa
 register_toa_estimator("median", _clustering("median"))
 register_toa_estimator("peak", _clustering("peak"))
 register_toa_estimator("energy-detector", None, replaces_cfar=True)
+register_toa_estimator("hmm", None, replaces_cfar=True)  # seed 004: the sensor's own chain (SignalSensor._hmm)
+register_toa_estimator(  # seed 001 section 3.2 steps 1-3: one ToA per interval of a distributed target
+    "interval",
+    lambda decisions, d, sig, fs: interval_toas(decisions, d, sig.toa_interval_samples, sig.toa_interval_threshold),
+)
+
+
+# --------------------------------------------------------------------------------------------- normalizations
+def _identity(d: FloatArray) -> FloatArray:
+    return d
+
+
+NORMALIZATIONS: Registry[Callable[[FloatArray], FloatArray]] = Registry("sensing.signal.normalization")
+"""``sensing.signal.normalization``: the weak-signal enhancement before the CFAR, ``(B, N) -> (B, N)``."""
+NORMALIZATIONS.register("none", _identity)
+NORMALIZATIONS.register("advance", advance_normalization)  # seed 001 section 2
 
 __all__ = [
     "CFAR_DETECTORS",
+    "NORMALIZATIONS",
     "TOA_ESTIMATORS",
     "CfarDetector",
     "Clusters",

@@ -44,6 +44,12 @@ def get(name: str, **overrides: Any) -> ScenarioConfig:
 
 
 # Registration happens on import of the scenario modules.
-from uwb_env.scenarios import indoor_monostatic, indoor_rsn, urban_crossing, urban_intersection  # noqa: E402, F401
+from uwb_env.scenarios import (  # noqa: E402, F401
+    indoor_monostatic,
+    indoor_rsn,
+    through_wall,
+    urban_crossing,
+    urban_intersection,
+)
 
 __all__ = ["get", "names", "register"]

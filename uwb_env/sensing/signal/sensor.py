@@ -49,8 +49,10 @@ from uwb_env.detection.energy_detector import (
     zonal_bandpass,
     zonal_noise_variance,
 )
-from uwb_env.detection.registry import cfar_detector, toa_estimator
+from uwb_env.detection.registry import NORMALIZATIONS, cfar_detector, toa_estimator
+from uwb_env.detection.toa_association import all_couples, associate_toas
 from uwb_env.localization import locate
+from uwb_env.localization.couples import array_frame, compensate_walls, couple_covariance, couple_positions
 from uwb_env.rng import RngStreams
 from uwb_env.scene import extended
 from uwb_env.scene.truth import Truth
@@ -91,6 +93,7 @@ class SignalEpisode:
     body_heading: FloatArray | None = None  # (S, K) extended targets: heading [rad] of every scan, or None
     body_speed: FloatArray | None = None  # (S, K) extended targets: speed [m/s]
     body_phase: FloatArray | None = None  # (S, K) extended targets: gait phase [rad]
+    couples: dict[int, tuple[FloatArray, FloatArray, IntArray]] | None = None  # network "couples": tx -> (C, W, O)
 
 
 @dataclass(frozen=True, slots=True)
@@ -182,6 +185,10 @@ class SignalSensor(ParametricModelHooks):
         self.cfar = cfar_detector(sig.cfar)  # registry: threshold-factor design + detector kernel
         self.alpha = self.cfar.design(sig, sig.n_samples)  # threshold factor of CA / G / OS (DTB: its own weights)
         self.toa = toa_estimator(sig.toa_estimator)
+        self.normalize = NORMALIZATIONS.get(sig.normalization)
+        self.position_receivers = 2 if sig.network == "couples" else sig.nu  # receivers behind a fused position
+        if sig.network == "couples":
+            self._init_couples()
         # the trackers' range std: the floor, and an extended person's spread about its centre (BodyModelConfig)
         body_std = sig.body.range_std_m if sig.target_model == "extended" else 0.0
         self.range_std_m = math.hypot(sig.range_std_floor_m, body_std)
@@ -190,6 +197,38 @@ class SignalSensor(ParametricModelHooks):
             self._init_energy_detector()
         area = lay.area
         self._area_m2 = float((area[1] - area[0]) * (area[3] - area[2]))
+
+    def _init_couples(self) -> None:
+        """Seed 001's arrays (``network = "couples"``): per transmitter its two receivers on a line through it.
+
+        ``self.couple_groups``: ``(tx, pair of Rx1, pair of Rx2, e, n, beta, m [s])`` per transmitter, Rx1 the
+        receiver at the smaller offset along the array, n towards the surveillance area, m the widening of eq. 5
+        generalised to |Rx1 Rx2| / c + t_corr (with the transmitter in the middle, 2 d / c + t_corr: the appendix's
+        bound is the triangle inequality on Rx1 Rx2 T).
+        """
+        lay, cfg = self.layout, self.cfg
+        area = lay.area
+        centre = np.array([0.5 * (area[0] + area[1]), 0.5 * (area[2] + area[3])])
+        self.couple_groups = []
+        for t in range(self.n_tx):  # transmitters: one or a few
+            idx = np.flatnonzero(self.pairs[:, 0] == t)
+            if idx.size != 2:
+                raise ValueError(
+                    f"sensing.signal.network = 'couples' in {cfg.name!r}: transmitter {t} forms {idx.size} pairs; "
+                    "seed 001's ToA couples need exactly two receivers per transmitter"
+                )
+            tx = lay.tx_pos[t]
+            rx = lay.rx_pos[self.pairs[idx, 1]]
+            e, n, beta = array_frame(tx, rx[0], rx[1], centre)
+            if np.any(np.abs((rx - tx) @ n) > 1e-6):
+                raise ValueError(
+                    f"sensing.signal.network = 'couples' in {cfg.name!r}: transmitter {t} and its receivers must lie "
+                    "on one line (seed 001's handheld array)"
+                )
+            idx = idx[np.argsort(beta)]
+            beta = np.sort(beta)
+            m = float(np.linalg.norm(rx[0] - rx[1])) / SPEED_OF_LIGHT_MPS + self.sig.association_correction_s
+            self.couple_groups.append((t, int(idx[0]), int(idx[1]), e, n, beta, m))
 
     def _init_energy_detector(self) -> None:
         """Constants of seed 002's energy detector: BPZF band, bins, noise statistics, absolute threshold xi_0.
@@ -408,6 +447,10 @@ class SignalSensor(ParametricModelHooks):
         )
         if self.sig.background == "exponential":
             episode.reference[w, active] = exponential_background(ref, aligned, self.sig.background_alpha)
+        elif self.sig.background == "exponential-coherent":  # seed 001: b <- alpha b + (1 - alpha) x, raw scans
+            episode.reference_scan[w, active] = exponential_background(
+                episode.reference_scan[w, active], scans, self.sig.background_alpha
+            )
         truth_range = episode.geom.bistatic_range[k, self.pairs[active, 0], self.pairs[active, 1]][row]  # (D, K)
         err = np.where(episode.truth.alive[k][None], np.abs(truth_range - ranges[:, None]), np.inf)
         origin = np.where(
@@ -457,9 +500,18 @@ class SignalSensor(ParametricModelHooks):
             decisions = self._cfar(d)
             decisions[blind] = False
             d[blind] = 0.0
+        elif sig.background == "exponential-coherent":
+            if ref_scan is None:
+                raise ValueError("background = 'exponential-coherent' needs the raw background scans (ref_scan)")
+            # seed 001: the raw scan less its exponential average (a common clock: no alignment), then the envelope
+            d = square_law_envelope(scans - ref_scan, self.lpf)
+            d[blind] = 0.0
+            d = self.normalize(d)
+            decisions = self._cfar(d)
         else:
             d = rectified_difference(aligned, ref)
             d[blind] = 0.0
+            d = self.normalize(d)
             decisions = self._cfar(d)
         clusters = self.toa.estimate(decisions, d, sig, self.fs)
         row, toa_s = clusters[0], clusters[1]
@@ -614,6 +666,8 @@ class SignalSensor(ParametricModelHooks):
         tr = self.detect(episode, k, plan, scans, active)
         if self.sig.output == "ranges":
             return self.ranges(tr, plan, time_s)
+        if self.sig.network == "couples":
+            return (self.localize_couples(episode, k, tr, plan, time_s),)
         return (self.localize(tr, plan, time_s),)
 
     def ranges(self, tr: ScanTrace, plan: ScanPlan, time_s: float) -> tuple[Detections, ...]:
@@ -687,6 +741,95 @@ class SignalSensor(ParametricModelHooks):
             z=z,
             R=R,
             snr=peak,
+            origin=origin,
+            measurement_names=_POSITION_NAMES,
+            clutter_intensity=np.full(n, density),
+            expected_false_alarms=density * self._area_m2,
+        )
+
+    # ------------------------------------------------------------------------------- seed 001: ToA couples
+    def couples(
+        self, episode: SignalEpisode, k: int, tr: ScanTrace, *, associate: bool, update: bool = True
+    ) -> tuple[FloatArray, FloatArray, IntArray, IntArray]:
+        """Seed 001's localization input and output for scan ``k``: the ToA couples of every transmitter's array.
+
+        Per transmitter (``couple_groups``), the ToAs of its two receivers as propagation times (bistatic range / c):
+        with ``associate`` the couples of the ToA association (:func:`~uwb_env.detection.toa_association.
+        associate_toas`, step 6 from the episode's previous couples, which ``update`` replaces), without it every
+        Rx1 x Rx2 combination; the walls' excess delay removed when ``wall_compensation`` is set; the ellipse
+        intersection (:func:`~uwb_env.localization.couples.couple_positions`). A transmitter with a receiver off
+        gives no couples. Returns ``(positions (L, 2) [m], ranges (L, 2) [m] as localized, tx (L,), origin (L,))``,
+        intersections outside the surveillance area dropped; origin (evaluation only): the target both ranges lie
+        within max(``origin_tolerance_m``, 3 ``range_std_m``) of, else -1 (the interval ToA is the body's leading
+        edge, a few tenths of a metre before its centre's).
+        """
+        sig, lay = self.sig, self.layout
+        if episode.couples is None:
+            episode.couples = {}
+        alive = episode.truth.alive[k]
+        pos = np.nan_to_num(episode.truth.states[k][:, [0, 2]])
+        area = lay.area
+        out_p, out_r, out_t, out_o = [np.zeros((0, 2))], [np.zeros((0, 2))], [np.zeros(0, np.int64)], []
+        for t, p1, p2, e, n, beta, m in self.couple_groups:  # transmitters: one or a few
+            i1, i2 = np.flatnonzero(tr.pairs == p1), np.flatnonzero(tr.pairs == p2)
+            if i1.size == 0 or i2.size == 0:
+                continue
+            toa1 = tr.ranges[tr.toa_row == i1[0]] / SPEED_OF_LIGHT_MPS
+            toa2 = tr.ranges[tr.toa_row == i2[0]] / SPEED_OF_LIGHT_MPS
+            if associate:
+                prev = episode.couples.get(t) if sig.association_completion else None
+                a1, a2, centre, width, order, _ = associate_toas(toa1, toa2, m, *(prev or (None, None, None)))
+                if update:
+                    episode.couples[t] = (centre, width, order)
+            else:
+                a1, a2 = all_couples(toa1, toa2)
+            r = SPEED_OF_LIGHT_MPS * np.stack([a1, a2], axis=-1)  # (L, 2)
+            tx = lay.tx_pos[t]
+            rx = lay.rx_pos[self.pairs[[p1, p2], 1]]  # (2, 2)
+            p, _ = couple_positions(r[:, 0], r[:, 1], tx, e, n, beta)
+            if sig.wall_compensation:
+                r = compensate_walls(r, p, tx, rx, lay.wall_start, lay.wall_end, lay.wall_delay_s)
+                p, _ = couple_positions(r[:, 0], r[:, 1], tx, e, n, beta)
+            inside = (p[:, 0] >= area[0]) & (p[:, 0] <= area[1]) & (p[:, 1] >= area[2]) & (p[:, 1] <= area[3])
+            p, r = p[inside], r[inside]
+            # evaluation only: the target both ranges lie near (walls' delay removed from the truth when the chain
+            # removed it from the measurements)
+            if sig.wall_compensation:
+                truth = np.linalg.norm(pos - tx, axis=-1)[None] + np.linalg.norm(pos[None] - rx[:, None], axis=-1)
+            else:
+                truth = episode.geom.bistatic_range[k, t, self.pairs[[p1, p2], 1]]  # (2, K)
+            err = np.where(alive[None], np.abs(truth[None] - r[:, :, None]).max(axis=1), np.inf)  # (L, K)
+            best = np.argmin(err, axis=1) if err.shape[1] else np.zeros(p.shape[0], np.int64)
+            ok = err.min(axis=1, initial=np.inf) < max(self.origin_tolerance_m, 3.0 * self.range_std_m)
+            out_o.append(np.where(ok, best, -1))
+            out_p.append(p)
+            out_r.append(r)
+            out_t.append(np.full(p.shape[0], t, dtype=np.int64))
+        origin = np.concatenate(out_o) if out_o else np.zeros(0, np.int64)
+        return np.concatenate(out_p), np.concatenate(out_r), np.concatenate(out_t), origin.astype(np.int64)
+
+    def localize_couples(
+        self, episode: SignalEpisode, k: int, tr: ScanTrace, plan: ScanPlan, time_s: float
+    ) -> Detections:
+        """Seed 001's network chain (``network = "couples"``): one record of the couples' 2-D positions."""
+        sig = self.sig
+        p, _, txi, origin = self.couples(episode, k, tr, associate=sig.toa_association)
+        R = np.zeros((p.shape[0], 2, 2))
+        for t, p1, p2, *_ in self.couple_groups:  # transmitters: one or a few
+            sel = txi == t
+            if sel.any():
+                rx = self.layout.rx_pos[self.pairs[[p1, p2], 1]]
+                R[sel] = couple_covariance(p[sel], self.layout.tx_pos[t], rx, self.range_std_m**2)
+        density = sig.false_position_density_per_m2
+        n = p.shape[0]
+        return Detections(
+            tx=0,
+            rx=-1,
+            waveform=int(plan.waveform[0]),
+            time_s=time_s,
+            z=p,
+            R=R,
+            snr=np.zeros(n),
             origin=origin,
             measurement_names=_POSITION_NAMES,
             clutter_intensity=np.full(n, density),

@@ -1,0 +1,201 @@
+"""Seed 001's kernels with known answers: advance normalization, interval ToAs, ToA association, wall compensation,
+two-ellipse intersection; the through-wall scenario's chain on its signal path."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from uwb_env import scenarios
+from uwb_env.config import SignalConfig
+from uwb_env.constants import SPEED_OF_LIGHT_MPS as C
+from uwb_env.detection.registry import NORMALIZATIONS, toa_estimator
+from uwb_env.detection.toa_association import advance_normalization, all_couples, associate_toas, interval_toas
+from uwb_env.localization.couples import array_frame, compensate_walls, couple_covariance, couple_positions
+
+TX = np.array([0.0, 0.0])
+RX = np.array([[-0.4, 0.0], [0.4, 0.0]])
+M_S = 0.8 / C + 0.5e-9  # eq. 5: 2 d / c + t_corr, d = 0.4 m
+
+
+def _ranges(p: np.ndarray) -> np.ndarray:
+    """``(L, 2)`` bistatic ranges of positions ``p`` (L, 2) for Rx1, Rx2."""
+    return np.linalg.norm(p - TX, axis=-1)[:, None] + np.linalg.norm(p[:, None] - RX[None], axis=-1)
+
+
+# ------------------------------------------------------------------------------------------ advance normalization
+def test_advance_normalization_divides_each_segment_by_its_hierarchical_maximum():
+    """x = [1, 4, 2, 3, 0.5, 1, 0, 0]: n_0 = 1 (4) normalizes [0, 1]; n_1 = 3 (3) normalizes (1, 3]; n_2 = 5 (1)."""
+    x = np.array([1.0, 4.0, 2.0, 3.0, 0.5, 1.0, 0.0, 0.0])
+    np.testing.assert_allclose(advance_normalization(x), [0.25, 1.0, 2 / 3, 1.0, 0.5, 1.0, 0.0, 0.0], rtol=1e-15)
+
+
+def test_advance_normalization_lifts_the_far_echo_to_one_and_is_batched():
+    """A near echo 100 and a far echo 2 over a floor 0.1: both peak at 1; the floor after the far echo becomes 1."""
+    x = np.full((2, 50), 0.1)
+    x[0, 10], x[0, 30] = 100.0, 2.0
+    x[1, 20] = 5.0
+    y = advance_normalization(x)
+    assert y.shape == (2, 50)
+    np.testing.assert_allclose(y[0, [10, 30]], [1.0, 1.0])
+    np.testing.assert_allclose(y[0, 9], 0.001)  # before the near echo: over 100
+    np.testing.assert_allclose(y[0, 20], 0.05)  # between the echoes: over 2
+    np.testing.assert_allclose(y[0, 40], 1.0)  # the tail's own maximum is the floor
+    np.testing.assert_allclose(y[1, 20], 1.0)
+    np.testing.assert_array_equal(NORMALIZATIONS.get("none")(x), x)
+
+
+# ------------------------------------------------------------------------------------------ steps 1-3
+def test_interval_toas_give_interval_start_minus_t_lim():
+    """Row 0: detections at 10-13 and 16 (W_p = 15, T_LIM = 3): the window first holds 3 at 12 -> ToA 9, the interval
+    lasts to 26 (the window [12, 26] still holds 12, 13, 16) -> weight 15; a lone false alarm at 40 is dropped.
+    Row 1: detections every other sample from 30: 3 in the window at 34 -> ToA 31."""
+    dec = np.zeros((2, 60), dtype=bool)
+    dec[0, 10:14] = True
+    dec[0, 16] = True
+    dec[0, 40] = True
+    dec[1, 30:45:2] = True
+    d = np.arange(120.0).reshape(2, 60)
+    row, toa, weight, peak = interval_toas(dec, d, 15, 3)
+    np.testing.assert_array_equal(row, [0, 1])
+    np.testing.assert_array_equal(toa, [9.0, 31.0])
+    np.testing.assert_array_equal(weight, [15, 21])
+    np.testing.assert_array_equal(peak, [26.0, 114.0])
+    sig = SignalConfig(toa_interval_samples=15, toa_interval_threshold=3)
+    got = toa_estimator("interval").estimate(dec, d, sig, 1.0)
+    for g, r in zip(got, (row, toa, weight, peak), strict=True):
+        np.testing.assert_array_equal(g, r)
+
+
+# ------------------------------------------------------------------------------------------ steps 4-7
+def test_association_keeps_true_pairs_and_rejects_ghost_pairs():
+    """Two persons at (-1, 2) and (1.5, 4): their couples come back exactly (eq. 11); of the four Rx1 x Rx2
+    combinations the two ghosts differ by more than m (|TOA^2 - TOA^1| > 2 d / c + t_corr) and form no couple."""
+    p = np.array([[-1.0, 2.0], [1.5, 4.0]])
+    r = _ranges(p)
+    t = r / C
+    a1, a2, centre, width, order, done = associate_toas(t[::-1, 0], t[:, 1], M_S)  # any input order
+    np.testing.assert_allclose(a1, t[:, 0], rtol=0, atol=1e-18)
+    np.testing.assert_allclose(a2, t[:, 1], rtol=0, atol=1e-18)
+    np.testing.assert_allclose(centre, t.mean(axis=1), rtol=1e-15)
+    np.testing.assert_allclose(width, M_S - np.abs(t[:, 0] - t[:, 1]), rtol=1e-12)
+    np.testing.assert_array_equal(order, [1, 2])  # person 1 is nearer Rx1 (its Rx1 ToA the smaller), 2 nearer Rx2
+    assert not done.any()
+    g1, g2 = all_couples(t[:, 0], t[:, 1])
+    ghost = np.abs(g1 - g2) > M_S
+    np.testing.assert_array_equal(ghost, [False, True, True, False])
+
+
+def test_close_toas_of_one_receiver_merge_into_one_couple():
+    """Rx1 ToAs 10 and 11 ns widened by m = 3 ns merge into [8.5, 12.5]; Rx2 at 10.5 ns gives [9, 12]: h_A = 3 on
+    [9, 12] -> one couple with C = 10.5, W = 3, O = 1 (Rx1's region opened first) -> eq. 11 gives (10.5, 10.5) ns."""
+    a1, a2, centre, width, order, _ = associate_toas(np.array([10e-9, 11e-9]), np.array([10.5e-9]), 3e-9)
+    np.testing.assert_allclose(centre, [10.5e-9], rtol=1e-12)
+    np.testing.assert_allclose(width, [3e-9], rtol=1e-12)
+    np.testing.assert_allclose(a1, [10.5e-9], rtol=1e-12)
+    np.testing.assert_allclose(a2, [10.5e-9], rtol=1e-12)
+    assert order.tolist() == [1]
+
+
+def test_step6_completes_an_isolated_toa_from_the_previous_couple():
+    """Previous couple C = 20 ns, W = 2 ns, O = 1 (m = 3 ns): an isolated Rx1 ToA at 20.4 ns this scan (Rx2 silent)
+    gets the couple back, ToAs 19.5 / 20.5 ns (eq. 11); a ToA 5 ns away gets nothing; step 6 off: nothing."""
+    prev = (np.array([20e-9]), np.array([2e-9]), np.array([1]))
+    a1, a2, _, _, _, done = associate_toas(np.array([20.4e-9, 40e-9]), np.zeros(0), 3e-9, *prev)
+    np.testing.assert_allclose(a1, [19.5e-9], rtol=1e-12)
+    np.testing.assert_allclose(a2, [20.5e-9], rtol=1e-12)
+    assert done.tolist() == [True]
+    assert associate_toas(np.array([25e-9]), np.zeros(0), 3e-9, *prev)[0].size == 0
+    assert associate_toas(np.array([20.4e-9]), np.zeros(0), 3e-9)[0].size == 0
+
+
+# ------------------------------------------------------------------------------------------ localization
+def test_two_ellipse_intersection_is_exact_and_needs_the_triangle_inequality():
+    p = np.array([[1.0, 3.0], [-2.0, 1.5], [0.0, 4.0], [0.3, 0.1]])
+    r = _ranges(p)
+    e, n, beta = array_frame(TX, RX[0], RX[1], np.array([0.0, 3.0]))
+    np.testing.assert_allclose(beta, [-0.4, 0.4])
+    z, ok = couple_positions(r[:, 0], r[:, 1], TX, e, n, beta)
+    assert ok.all()
+    np.testing.assert_allclose(z, p, atol=1e-12)
+    # |r1 - r2| > |Rx1 Rx2| = 0.8 m: no intersection (a ghost couple of two far-apart persons)
+    z, ok = couple_positions(np.array([4.0]), np.array([5.0]), TX, e, n, beta)
+    assert not ok[0]
+    assert np.isnan(z).all()
+
+
+def test_wall_compensation_removes_two_crossings_in_closed_form():
+    """A wall at y = 0.36 with 0.8 ns per crossing: a person behind it measures r + 2 c 0.8 ns on both pairs
+    (0.4797 m); compensation subtracts exactly that and the intersection returns the person."""
+    p = np.array([[1.0, 3.0], [-2.0, 1.5], [0.0, 4.0]])
+    bias = 2.0 * C * 0.8e-9
+    np.testing.assert_allclose(bias, 0.47966793, rtol=1e-7)
+    r = _ranges(p) + bias
+    e, n, beta = array_frame(TX, RX[0], RX[1], np.array([0.0, 3.0]))
+    p0, _ = couple_positions(r[:, 0], r[:, 1], TX, e, n, beta)
+    assert np.all(np.linalg.norm(p0 - p, axis=1) > 0.2)  # uncompensated: biased away from the array
+    wall_a, wall_b = np.array([[-3.0, 0.36]]), np.array([[3.0, 0.36]])
+    rc = compensate_walls(r, p0, TX, RX, wall_a, wall_b, np.array([0.8e-9]))
+    np.testing.assert_allclose(r - rc, bias, rtol=1e-12)
+    z, _ = couple_positions(rc[:, 0], rc[:, 1], TX, e, n, beta)
+    np.testing.assert_allclose(z, p, atol=1e-9)
+
+
+def test_couple_covariance_is_sigma2_inverse_jtj():
+    """Broadside at (0, 3): J rows (u_t + u_k); the cross-range variance exceeds the down-range one by far."""
+    p = np.array([[0.0, 3.0]])
+    cov = couple_covariance(p, TX, RX, 0.1**2)[0]
+    ut = np.array([0.0, 1.0])
+    J = np.stack([ut + (p[0] - rx) / np.linalg.norm(p[0] - rx) for rx in RX])
+    np.testing.assert_allclose(cov, 0.01 * np.linalg.inv(J.T @ J), rtol=1e-6, atol=1e-15)
+    # cross-range: J_x = +-d / l (l = |p - Rx| = sqrt(9.16)), var = sigma^2 l^2 / (2 d^2) = 0.01 x 9.16 / 0.32
+    np.testing.assert_allclose(cov[0, 0], 0.28625, rtol=1e-6)
+    assert cov[0, 0] > 200 * cov[1, 1]
+
+
+# ------------------------------------------------------------------------------------------ scenario, config
+def test_through_wall_scenario_holds_the_seeds_values():
+    cfg = scenarios.get("through-wall")
+    assert [r.position_m for r in cfg.receivers] == [(-0.4, 0.0), (0.4, 0.0)]
+    assert cfg.transmitters[0].position_m == (0.0, 0.0)
+    assert cfg.walls[0].start_m[1] == pytest.approx(0.36)
+    sig = cfg.sensing.signal
+    assert (sig.sample_rate_hz, sig.n_samples, sig.toa_interval_samples) == (4.5e9, 511, 15)
+    assert sig.n_samples / sig.sample_rate_hz == pytest.approx(113.6e-9, rel=1e-3)  # the seed's 114 ns
+    assert cfg.sensing.scan_period_s == 0.074
+    assert len(cfg.targets) == 2
+
+
+def test_bad_seed001_config_raises_naming_the_field():
+    with pytest.raises(ValueError, match=r"SignalConfig.toa_interval_threshold = 16: must be an integer in \[1"):
+        SignalConfig(toa_interval_threshold=16)
+    with pytest.raises(ValueError, match=r"SignalConfig.toa_association = True: must be False unless network"):
+        SignalConfig(toa_association=True)
+    with pytest.raises(ValueError, match=r"SignalConfig.normalization = 'adv'.*did you mean 'advance'"):
+        SignalConfig(normalization="adv")
+    with pytest.raises(ValueError, match=r"sensing.signal.normalization = 'x': must be one of \('none', 'advance'\)"):
+        NORMALIZATIONS.get("x")
+    from uwb_env.sensing.signal.sensor import SignalSensor
+
+    rsn = scenarios.get("indoor-rsn", **{"sensing.signal.network": "couples"})
+    with pytest.raises(ValueError, match="exactly two receivers per transmitter"):
+        SignalSensor(rsn)
+
+
+def test_the_signal_chain_finds_both_persons_on_a_seeded_run():
+    """Scan by scan on run 0: the association's couples hold each person (within 0.75 m) in >= 35 % of the scans."""
+    from uwb_env.sensing.records import ScanPlan
+    from uwb_env.sim import Simulator
+
+    cfg = scenarios.get("through-wall", **{"sensing.fidelity": "signal", "n_scans": 40})
+    sim = Simulator(cfg)
+    sim.reset(0)
+    plan = ScanPlan.all_listening(0, 1, 2)
+    hits = []
+    while not sim.done:
+        res = sim.step(plan)
+        z = res.detections[0].z
+        truth = sim.truth.states[res.scan_index][:, [0, 2]]
+        hits.append((np.linalg.norm(z[:, None] - truth[None], axis=-1) < 0.75).any(axis=0))
+    rate = np.mean(hits, axis=0)
+    assert np.all(rate >= 0.35), rate
