@@ -753,6 +753,13 @@ class SignalConfig:
     ``wall_compensation`` removes the known walls' excess delay from the couple's ranges before the
     intersection.
 
+    Seed 004's ToA (``toa_estimator = "hmm"``, :mod:`uwb_env.detection.hmm`): the scan's and the raw empty room's
+    energies in bins of ``hmm_bin_s`` from the blind zone's end, the single-capture change statistic O_k per bin
+    (chi^2_1 in an unchanged bin: the noise and the background paths' fluctuation ``clutter_fluctuation`` being
+    known), a two-state HMM along delay (``hmm_p01`` the per-bin change probability, ``hmm_p10`` the seed's small
+    return probability epsilon; state 0's O exactly chi^2_1, state 1's log O ~ N(``hmm_change_log_mean``,
+    ``hmm_change_log_var``)), ``hmm_iterations`` Baum-Welch iterations over the scan's pairs from that lambda; the ToA
+    is the centre of the first bin whose posterior P(X_k = 1 | O) exceeds 1/2 (eq. 12), at most one per pair.
     """
 
     sample_rate_hz: float = 16.4e9
@@ -787,10 +794,16 @@ class SignalConfig:
     os_rank: int = 48
     cluster_distance_s: float = 65 / 16.4e9
     cluster_min_weight: int = 4
-    toa_estimator: Literal["median", "peak", "energy-detector", "interval"] = "peak"
+    toa_estimator: Literal["median", "peak", "energy-detector", "interval", "hmm"] = "peak"
     ed_threshold_ratio: float = 0.95
     ed_false_alarm_probability: float = 0.01
     ed_pulse_integration: Literal["noncoherent", "coherent"] = "noncoherent"
+    hmm_bin_s: float = 1e-9
+    hmm_p01: float = 0.02
+    hmm_p10: float = 0.01
+    hmm_change_log_mean: float = 3.0
+    hmm_change_log_var: float = 4.0
+    hmm_iterations: int = 0
     nu: int = 3
     min_tuple_weight: float = 30.0
     max_residual_m: float = 0.15
@@ -861,8 +874,13 @@ class SignalConfig:
             "SignalConfig",
             "toa_estimator",
             self.toa_estimator,
-            ("median", "peak", "energy-detector", "interval"),
+            ("median", "peak", "energy-detector", "interval", "hmm"),
         )
+        _positive("SignalConfig", "hmm_bin_s", self.hmm_bin_s)
+        _in_range("SignalConfig", "hmm_p01", self.hmm_p01, 0.0, 1.0, closed="()")
+        _in_range("SignalConfig", "hmm_p10", self.hmm_p10, 0.0, 1.0, closed="[)")
+        _positive("SignalConfig", "hmm_change_log_var", self.hmm_change_log_var)
+        _int_at_least("SignalConfig", "hmm_iterations", self.hmm_iterations, 0)
         _in_range("SignalConfig", "ed_threshold_ratio", self.ed_threshold_ratio, 0.0, 1.0, closed="()")
         _in_range("SignalConfig", "ed_false_alarm_probability", self.ed_false_alarm_probability, 0.0, 1.0, closed="(]")
         _choice("SignalConfig", "ed_pulse_integration", self.ed_pulse_integration, ("noncoherent", "coherent"))

@@ -245,3 +245,69 @@ def test_object_paths_geometry():
     tau, d, a = cir.object_paths(rng, room, cfg, tx, rx, [0.0, 3.5], 0.1, 0.1, 0.3, static, 0.3, inside=False)
     assert not np.any(np.isin(d, delays))
     assert np.all(d >= tau - 1e-12)
+
+
+# ------------------------------------------------------------------------------------- the signal sensor's HMM
+def test_single_capture_statistic_is_chi2_in_an_unchanged_room():
+    rng = np.random.default_rng(12)
+    B, S, E = 400, 400, 16
+    s = np.zeros(S)
+    s[100:300] = 3.0 * np.sin(np.arange(200) * 0.7)  # a background, the same in scan and reference
+    scan = s + rng.standard_normal((B, S))
+    ref = s + rng.standard_normal((B, S)) / np.sqrt(E)
+    O = hmm.single_capture_observations(scan, ref, np.full(B, 20.0), 16.0, 24, 1.0, 1.0 / E)  # whole samples per bin
+    assert np.all(np.isnan(O[:, -1]))  # past the scan's end: missing
+    y = np.log(O[:, :-1])
+    # chi^2_1 up to the Gaussian approximation of a 16-sample bin energy (skewness 0.7): E[O] = 1 to within 3 % (its
+    # standard error 1.5 %; 0.985 when written), E[log O] within 0.1 of chi^2_1's (-1.30 against -1.27)
+    assert np.mean(O[:, :-1]) == pytest.approx(1.0, abs=0.03)
+    assert np.mean(y) == pytest.approx(hmm.CHI2_1_LOG_MEAN, abs=0.1)
+    assert np.var(y) == pytest.approx(hmm.CHI2_1_LOG_VAR, rel=0.08)
+    # the exact chi^2_1 density of log O for state 0
+    p = hmm.single_capture_params(0.02, 0.01, 3.0, 4.0)
+    yy = np.array([[-3.0, 0.0, 3.8]])
+    np.testing.assert_allclose(hmm.log_emissions(yy, p)[0, :, 0], stats.chi2(1).logpdf(np.exp(yy[0])) + yy[0])
+
+
+def test_signal_scan_with_hmm_toa_estimator_ranges_near_the_truth():
+    """indoor-rsn, a point echo of 30 dB at 1.5-6 m of excess range on every pair (8 scans each): the HMM's range
+    (the centre of its 1 ns bin, 0.3 m) is within 0.3 m of the bistatic range in most scans."""
+    from uwb_env import scenarios
+    from uwb_env.config import SignalConfig
+    from uwb_env.detection.registry import toa_estimator
+    from uwb_env.rng import RngStreams
+    from uwb_env.scene import sample_truth
+    from uwb_env.sensing import ScanPlan
+    from uwb_env.sensing.signal import SignalSensor
+
+    assert toa_estimator("hmm").replaces_cfar
+    with pytest.raises(ValueError, match="hmm_p01"):
+        SignalConfig(toa_estimator="hmm", hmm_p01=0.0)
+    over = {"sensing.fidelity": "signal", "sensing.signal.target_model": "point", "sensing.signal.toa_estimator": "hmm"}
+    cfg = scenarios.get("indoor-rsn", **over)
+    s = SignalSensor(cfg)
+    rngs = RngStreams.from_seed(5)
+    ep = s.new_episode(sample_truth(cfg, rngs.truth, s.layout), rngs)
+    rng = np.random.default_rng(6)
+    B, err, n = 8, [], 0
+    for p in range(s.pairs.shape[0]):
+        for excess in (1.5, 3.0, 4.5, 6.0):
+            scans = s.controlled_scans(rng, p, 0, excess, np.full(B, 1e3))
+            *_, (row, _, _, _), ranges = s.in_sensor(
+                scans,
+                np.broadcast_to(ep.reference[0, p], scans.shape),
+                np.full(B, ep.reference_toa[0, p]),
+                np.full(B, ep.reference_peak[0, p]),
+                np.full(B, p),
+                np.broadcast_to(ep.reference_scan[0, p], scans.shape),
+            )
+            assert np.all(np.diff(row) > 0)  # at most one ToA per scan
+            err.append(ranges - s.baseline[p] - excess)
+            n += B
+    e = np.concatenate(err)
+    assert e.size > 0.9 * n  # 0.94 when written
+    assert np.mean(np.abs(e) < 0.3) > 0.8  # 0.87 when written
+    assert np.median(np.abs(e)) < 0.3  # 0.25: the first changed bin is often the one with the pulse's leading edge
+    # the whole sense path runs with it
+    plan = ScanPlan.all_listening(0, s.n_tx, s.n_rx)
+    assert len(s.sense(ep, 1, plan)) > 0

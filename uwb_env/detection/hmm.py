@@ -52,6 +52,7 @@ from __future__ import annotations
 import dataclasses
 import warnings
 
+import numba as nb
 import numpy as np
 
 from uwb_env.typing import FloatArray, IntArray
@@ -79,30 +80,84 @@ def kl_observations(calibration: FloatArray, test: FloatArray, var_floor: float 
     return gaussian_symmetric_kl(cal.mean(axis=-2), var_p, tst.mean(axis=-2), var_q)
 
 
+CHI2_1_LOG_MEAN = -1.2703628454614782
+"""E[log X] of X ~ chi^2 with 1 degree of freedom (digamma(1/2) + log 2): state 0 of the single-capture statistic."""
+CHI2_1_LOG_VAR = 4.934802200544679
+"""Var[log X] of X ~ chi^2_1 (pi^2 / 2)."""
+
+
+def single_capture_observations(
+    scan: FloatArray,
+    ref: FloatArray,
+    start: FloatArray,
+    bin_len: float,
+    n_bins: int,
+    var_scan: float,
+    var_ref: float,
+    rel_std: float = 0.0,
+) -> FloatArray:
+    """O ``(B, n_bins)`` of one capture against an empty-room reference, both real scans ``(B, S)``.
+
+    The signal sensor sees one scan per pair, not the seed's ten captures, but knows its noise: white, variance
+    ``var_scan`` per sample in the scan and ``var_ref`` in the (averaged) reference. With the bin energies r_k of
+    the scan and rbar_k of the reference over bins of ``bin_len`` samples (m_k) from ``start`` (B,) [samples], eq. 5
+    with both distributions' variance the known variance v_k of r_k - rbar_k in an unchanged room gives
+
+        O_k = (r_k - rbar_k - m_k (var_scan - var_ref))^2 / v_k,
+        v_k = 4 S_k (var_scan + var_ref) + 2 m_k (var_scan^2 + var_ref^2) + (rel_std S_k)^2,
+
+    (the noise's mean energy differs between scan and reference), S_k the bin's noise-free energy, estimated as
+    max(rbar_k - m_k var_ref, 0), ``rel_std`` the relative std of a bin's background energy from scan to reference
+    (a background that does not repeat exactly: the paths' fluctuation). In an unchanged bin O_k is chi^2 with one
+    degree of freedom, to the Gaussian approximation of a bin's energy (state 0: :data:`CHI2_1_LOG_MEAN`,
+    :data:`CHI2_1_LOG_VAR`, or exactly with ``HmmParams.chi2_state0``). Bins past the scan's end are NaN (missing).
+    """
+    from uwb_env.detection.energy_detector import bin_energies
+
+    scan, ref = np.asarray(scan, dtype=float), np.asarray(ref, dtype=float)
+    r = bin_energies(scan, start, bin_len, n_bins)
+    rb = bin_energies(ref, start, bin_len, n_bins)
+    m = bin_energies(np.ones(ref.shape), start, bin_len, n_bins)  # samples per bin
+    S = np.maximum(rb - m * var_ref, 0.0)  # the bin's noise-free energy, unbiased before the clip
+    v = 4.0 * S * (var_scan + var_ref) + 2.0 * m * (var_scan**2 + var_ref**2) + np.square(rel_std * S)
+    return np.square(r - rb - m * (var_scan - var_ref)) / v
+
+
 # ------------------------------------------------------------------------------------------------------ the HMM
 @dataclasses.dataclass(frozen=True)
 class HmmParams:
-    """lambda = [pi_i, P_ij, f_O,i] (eq. 8) with log-normal f_O,i: log O | X = i ~ N(mean[i], var[i])."""
+    """lambda = [pi_i, P_ij, f_O,i] (eq. 8) with log-normal f_O,i: log O | X = i ~ N(mean[i], var[i]).
+
+    ``chi2_state0``: state 0's density is the exact one of the single-capture statistic (O ~ chi^2_1, so
+    log f(y) = y / 2 - e^y / 2 - log(2 pi) / 2 for y = log O) instead of its log-normal fit, whose right tail is
+    far heavier (at O = 45: -4.3 against -21.5).
+    """
 
     pi: FloatArray  # (2,)
     P: FloatArray  # (2, 2), rows sum to 1
     mean: FloatArray  # (2,) of log O
     var: FloatArray  # (2,) of log O
+    chi2_state0: bool = False  # state 0's O exactly chi^2_1 (mean[0], var[0] unused; Baum-Welch keeps it)
 
     def __post_init__(self) -> None:
         for name in ("pi", "P", "mean", "var"):
             object.__setattr__(self, name, np.asarray(getattr(self, name), dtype=float))
+        object.__setattr__(self, "chi2_state0", bool(self.chi2_state0))
 
 
 def log_observations(obs: FloatArray) -> FloatArray:
-    """Y = log O with O floored at :data:`LOG_FLOOR`."""
-    return np.log(np.maximum(np.asarray(obs, dtype=float), LOG_FLOOR))
+    """Y = log O with O floored at :data:`LOG_FLOOR` (NaN, a missing bin, stays NaN)."""
+    return np.log(np.fmax(np.asarray(obs, dtype=float), LOG_FLOOR))
 
 
 def log_emissions(y: FloatArray, params: HmmParams) -> FloatArray:
-    """``(B, N, 2)`` log N(y; mean_i, var_i) of log-observations ``y`` ``(B, N)``."""
+    """``(B, N, 2)`` log N(y; mean_i, var_i) of log-observations ``y`` ``(B, N)``; a missing (NaN) bin gives 0."""
     d = y[..., None] - params.mean
-    return -0.5 * (np.log(2.0 * np.pi * params.var) + d * d / params.var)
+    out = -0.5 * (np.log(2.0 * np.pi * params.var) + d * d / params.var)
+    if params.chi2_state0:
+        with np.errstate(over="ignore"):
+            out[..., 0] = 0.5 * (y - np.exp(y) - np.log(2.0 * np.pi))
+    return np.where(np.isnan(out), 0.0, out)
 
 
 def _log(x: FloatArray) -> FloatArray:
@@ -111,31 +166,45 @@ def _log(x: FloatArray) -> FloatArray:
 
 
 def forward_backward(log_b: FloatArray, pi: FloatArray, P: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Log-domain forward-backward on ``(B, N, 2)`` log emission densities.
+    """Log-domain forward-backward on ``(B, N, 2)`` log emission densities (compiled; a missing bin has log_b = 0).
 
     Returns:
         log_alpha ``(B, N, 2)`` = log p(O_1..k, X_k = i), log_beta ``(B, N, 2)`` = log p(O_k+1..N | X_k = i),
         loglik ``(B,)`` = log p(O | lambda).
     """
-    N = log_b.shape[1]
-    lpi, lP = _log(pi), _log(P)
+    log_b = np.ascontiguousarray(log_b, dtype=float)
+    return _forward_backward(log_b, _log(np.asarray(pi, dtype=float)), _log(np.asarray(P, dtype=float)))
+
+
+@nb.njit(cache=True, nogil=True)
+def _lse2(a: float, b: float) -> float:  # pragma: no cover - compiled
+    m = max(a, b)
+    if m == -np.inf:
+        return -np.inf
+    return m + np.log(np.exp(a - m) + np.exp(b - m))
+
+
+@nb.njit(cache=True, nogil=True)
+def _forward_backward(log_b, lpi, lP):  # pragma: no cover - compiled
+    B, N, S = log_b.shape
     la = np.empty_like(log_b)
     lb = np.empty_like(log_b)
-    la[:, 0] = lpi + log_b[:, 0]
-    for k in range(1, N):  # loop over bins, vectorised over sequences and states
-        la[:, k] = log_b[:, k] + _lse(la[:, k - 1, :, None] + lP, axis=1)
-    lb[:, -1] = 0.0
-    for k in range(N - 2, -1, -1):
-        lb[:, k] = _lse(lP + (log_b[:, k + 1] + lb[:, k + 1])[:, None, :], axis=2)
-    loglik = _lse(la[:, -1], axis=-1)
-    return la, lb, loglik
-
-
-def _lse(a: FloatArray, axis: int) -> FloatArray:
-    m = np.max(a, axis=axis, keepdims=True)
-    m = np.where(np.isfinite(m), m, 0.0)
-    with np.errstate(divide="ignore"):
-        return np.squeeze(m, axis=axis) + np.log(np.sum(np.exp(a - m), axis=axis))
+    ll = np.empty(B)
+    for r in range(B):
+        for i in range(S):
+            la[r, 0, i] = lpi[i] + log_b[r, 0, i]
+        for k in range(1, N):
+            for j in range(S):
+                la[r, k, j] = log_b[r, k, j] + _lse2(la[r, k - 1, 0] + lP[0, j], la[r, k - 1, 1] + lP[1, j])
+        for i in range(S):
+            lb[r, N - 1, i] = 0.0
+        for k in range(N - 2, -1, -1):
+            for i in range(S):
+                lb[r, k, i] = _lse2(
+                    lP[i, 0] + log_b[r, k + 1, 0] + lb[r, k + 1, 0], lP[i, 1] + log_b[r, k + 1, 1] + lb[r, k + 1, 1]
+                )
+        ll[r] = _lse2(la[r, N - 1, 0], la[r, N - 1, 1])
+    return la, lb, ll
 
 
 def posteriors(obs: FloatArray, params: HmmParams) -> tuple[FloatArray, FloatArray]:
@@ -181,6 +250,23 @@ def supervised_params(obs: FloatArray, k_star: IntArray, eps: float = 0.01, var_
     P = np.array([[1.0 - p01, p01], [eps, 1.0 - eps]])
     fits = [_lognormal_fit(y, (state == i).astype(float), var_floor) for i in (0, 1)]
     return HmmParams(pi, P, np.array([f[0] for f in fits]), np.array([f[1] for f in fits]))
+
+
+def single_capture_params(
+    p01: float, p10: float, change_log_mean: float, change_log_var: float, chi2_state0: bool = True
+) -> HmmParams:
+    """The lambda of :func:`single_capture_observations`: state 0 the chi^2_1 statistic's log-normal fit, state 1 given.
+
+    pi = (1 - p01, p01): the first bin is a change with the per-bin change probability. ``chi2_state0``: state 0
+    the exact chi^2_1 (default) rather than its log-normal fit (:data:`CHI2_1_LOG_MEAN`, :data:`CHI2_1_LOG_VAR`).
+    """
+    return HmmParams(
+        [1.0 - p01, p01],
+        [[1.0 - p01, p01], [p10, 1.0 - p10]],
+        [CHI2_1_LOG_MEAN, change_log_mean],
+        [CHI2_1_LOG_VAR, change_log_var],
+        chi2_state0,
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -248,10 +334,10 @@ def baum_welch(
             hard = np.argmax(gamma, axis=-1)
             w = np.stack([hard == 0, hard == 1], axis=-1).astype(float)
         mean, var = p.mean.copy(), p.var.copy()
-        for i in (0, 1):
+        for i in (1,) if p.chi2_state0 else (0, 1):
             if w[..., i].sum() > 1e-9:
-                mean[i], var[i] = _lognormal_fit(y, w[..., i], var_floor)
-        p = HmmParams(pi, P, mean, var)
+                mean[i], var[i] = _lognormal_fit(np.nan_to_num(y), w[..., i] * ~np.isnan(y), var_floor)
+        p = HmmParams(pi, P, mean, var, p.chi2_state0)
         params.append(p)
     return BaumWelchResult(params[: len(lls)], np.array(lls))
 

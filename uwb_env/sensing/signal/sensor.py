@@ -36,6 +36,7 @@ from uwb_env.detection import (
     direct_path_toa,
     exponential_background,
     fractional_shift,
+    hmm,
     parabolic_peak,
     rectified_difference,
     square_law_envelope,
@@ -195,6 +196,12 @@ class SignalSensor(ParametricModelHooks):
         self.origin_tolerance_m = ORIGIN_TOLERANCE_M
         if sig.toa_estimator == "energy-detector":
             self._init_energy_detector()
+        if sig.toa_estimator == "hmm":  # seed 004: bins from the blind zone's end to the scan's end, lambda
+            self.hmm_bin = sig.hmm_bin_s * self.fs
+            self.hmm_n_bins = max(1, math.floor((sig.n_samples - self.dp_sample - self.blind) / self.hmm_bin))
+            self.hmm_params = hmm.single_capture_params(
+                sig.hmm_p01, sig.hmm_p10, sig.hmm_change_log_mean, sig.hmm_change_log_var
+            )
         area = lay.area
         self._area_m2 = float((area[1] - area[0]) * (area[3] - area[2]))
 
@@ -482,6 +489,8 @@ class SignalSensor(ParametricModelHooks):
         sig = self.sig
         if sig.toa_estimator == "energy-detector":
             return self._energy_detector(scans, ref_peak, pair, ref_scan, waveform, ed_uniform)
+        if sig.toa_estimator == "hmm":
+            return self._hmm(scans, ref, ref_toa, ref_peak, pair, ref_scan)
         env = square_law_envelope(scans, self.lpf)
         if sig.align_scans:
             toa = direct_path_toa(env, sig.dp_threshold_ratio, self.jump_back)
@@ -568,6 +577,55 @@ class SignalSensor(ParametricModelHooks):
         ranges = self.baseline[pair][row] + SPEED_OF_LIGHT_MPS * (toa_s - ref_peak[row]) / self.fs
         env = square_law_envelope(scans, self.lpf)
         return env, d, decisions, (row, toa_s, weight, peak), ranges
+
+    def _hmm(
+        self,
+        scans: FloatArray,
+        ref: FloatArray,
+        ref_toa: FloatArray,
+        ref_peak: FloatArray,
+        pair: IntArray,
+        ref_scan: FloatArray | None,
+    ) -> tuple[FloatArray, FloatArray, BoolArray, tuple, FloatArray]:
+        """Seed 004's HMM ToA (``toa_estimator = "hmm"``, :mod:`uwb_env.detection.hmm`), in :meth:`in_sensor`'s format.
+
+        The raw scans, aligned to the reference like the coherent background's (``align_scans``), and the raw empty
+        room give bin energies over ``hmm_bin_s`` bins from the blind zone's end; O_k is the single-capture change
+        statistic (unit noise in the scan, 1 / ``empty_room_scans`` in the reference, a background bin's energy
+        fluctuating by 2 ``clutter_fluctuation``); the HMM's posterior gives the
+        first bin with P(X_k = 1 | O) > 1/2, the ToA its centre (at most one per pair). Returns the aligned
+        envelopes, O spread over each bin's samples as the difference, the detected bin's samples as decisions, the
+        clusters ``(row, toa [samples], weight = the bin's samples, peak = O at the detected bin)`` and the ranges.
+        """
+        sig = self.sig
+        if ref_scan is None:
+            raise ValueError("toa_estimator = 'hmm' needs the raw reference scans (ref_scan)")
+        env = square_law_envelope(scans, self.lpf)
+        aligned, raw = env, scans
+        if sig.align_scans:
+            toa = direct_path_toa(env, sig.dp_threshold_ratio, self.jump_back)
+            aligned, delay = align_to_reference(env, ref, toa, ref_toa, self.half_window)
+            raw = fractional_shift(scans, -delay)
+        start = ref_peak + self.blind
+        obs = hmm.single_capture_observations(
+            raw, ref_scan, start, self.hmm_bin, self.hmm_n_bins, 1.0, 1.0 / sig.empty_room_scans,
+            2.0 * sig.clutter_fluctuation,  # a path's relative energy std: twice its amplitude's
+        )  # fmt: skip
+        params = self.hmm_params
+        if sig.hmm_iterations:
+            params = hmm.baum_welch(obs, params, sig.hmm_iterations).final
+        k = hmm.hmm_delay(hmm.changed_posterior(obs, params))
+        row = np.flatnonzero(k >= 0)
+        toa_s = (start + (k + 0.5) * self.hmm_bin)[row]
+        peak = obs[row, k[row]]
+        weight = np.full(row.size, max(1, round(self.hmm_bin)), dtype=np.int64)
+        ranges = self.baseline[pair][row] + SPEED_OF_LIGHT_MPS * (toa_s - ref_peak[row]) / self.fs
+        idx = np.arange(scans.shape[-1])[None]
+        j = np.floor((idx - start[:, None]) / self.hmm_bin).astype(np.int64)  # each sample's bin
+        inside = (j >= 0) & (j < self.hmm_n_bins)
+        d = np.where(inside, np.take_along_axis(np.nan_to_num(obs), np.clip(j, 0, self.hmm_n_bins - 1), axis=1), 0.0)
+        decisions = inside & (j == k[:, None]) & (k[:, None] >= 0)
+        return aligned, d, decisions, (row, toa_s, weight, peak), ranges
 
     def ed_range_variance(self, snr: FloatArray, waveform: int) -> FloatArray:
         """``(D,)`` range variance [m^2] of energy-detector ToAs at estimated integrated SNR ``snr`` (D,).
@@ -755,7 +813,9 @@ class SignalSensor(ParametricModelHooks):
 
         Per transmitter (``couple_groups``), the ToAs of its two receivers as propagation times (bistatic range / c):
         with ``associate`` the couples of the ToA association (:func:`~uwb_env.detection.toa_association.
-        associate_toas`, step 6 from the episode's previous couples, which ``update`` replaces), without it every
+        associate_toas`, step 6 from the couples steps 4-5 found in the previous scan -- our reading of "couples found
+        in the previous observation time instant": a completion is not found, so it holds a couple for one scan and
+        never chains; ``update`` stores this scan's), without it every
         Rx1 x Rx2 combination; the walls' excess delay removed when ``wall_compensation`` is set; the ellipse
         intersection (:func:`~uwb_env.localization.couples.couple_positions`). A transmitter with a receiver off
         gives no couples. Returns ``(positions (L, 2) [m], ranges (L, 2) [m] as localized, tx (L,), origin (L,))``,
@@ -778,9 +838,9 @@ class SignalSensor(ParametricModelHooks):
             toa2 = tr.ranges[tr.toa_row == i2[0]] / SPEED_OF_LIGHT_MPS
             if associate:
                 prev = episode.couples.get(t) if sig.association_completion else None
-                a1, a2, centre, width, order, _ = associate_toas(toa1, toa2, m, *(prev or (None, None, None)))
-                if update:
-                    episode.couples[t] = (centre, width, order)
+                a1, a2, centre, width, order, done = associate_toas(toa1, toa2, m, *(prev or (None, None, None)))
+                if update:  # step 6 completes from the couples the association found (a completion is not found)
+                    episode.couples[t] = (centre[~done], width[~done], order[~done])
             else:
                 a1, a2 = all_couples(toa1, toa2)
             r = SPEED_OF_LIGHT_MPS * np.stack([a1, a2], axis=-1)  # (L, 2)
