@@ -243,7 +243,8 @@ def associate_toas(
         ToA whose widened interval holds no 3 (an isolated simple target) is completed when a previous couple's
         centre C_l(tau_{j-1}) lies in that interval: the couple is repeated with its previous W_l, C_l, O_Rx1,l (our
         choices where the seed is silent: each previous couple completes at most one ToA, the nearest, and none that
-        a current couple already continues -- its centre within m/2 of a current centre). Step 7 (eq. 11): for a
+        a current couple already continues -- its centre within m/2 of a current centre; which couples count as
+        the previous scan's is the caller's: the signal sensor passes the ones steps 4-5 found). Step 7 (eq. 11): for a
         single pair of ToAs a_1 < a_2 (O = 1) the run of 3 is [a_2 - m/2, a_1 + m/2], so W = m - (a_2 - a_1) and
         C = (a_1 + a_2)/2, whence
 
