@@ -45,7 +45,7 @@ TRAIN_DOC = """Train an RL scheduler (stable-baselines3 / sb3-contrib) on a regi
 
     uwb-env-train --env uwb_env/UrbanWaveform-v2 --algo maskable-ppo --timesteps 200000 --out runs/urban-mppo
     uwb-env-train --env uwb_env/UrbanWaveform-v2 --algo maskable-ppo --timesteps 400000 --out runs/urban-mppo --resume
-    uwb-env-train --env uwb_env/IndoorJoint-v0 --algo dqn --timesteps 50000 --hyper learning_rate=3e-4 \\
+    uwb-env-train --env uwb_env/IndoorJoint-v1 --algo dqn --timesteps 50000 --hyper learning_rate=3e-4 \\
         --env-kwarg fidelity=parametric --out runs/joint-dqn
 
 Algorithms: ppo, a2c, dqn, maskable-ppo. Hyper-parameters come from the versioned preset
@@ -56,7 +56,7 @@ from the newest checkpoint up to ``--timesteps`` in total. Evaluate a trained ru
 
 With ``--engine rllib`` (the ``ray`` extra; RLlib's new API stack, ``agents/rl/rllib_engine.py``):
 
-    uwb-env-train --engine rllib --env uwb_env/IndoorSensorSubset-v0 --algo ppo --timesteps 20000 \
+    uwb-env-train --engine rllib --env uwb_env/IndoorSensorSubset-v1 --algo ppo --timesteps 20000 \
         --env-runners 2 --envs-per-runner 2 --out runs/subset-rllib
     uwb-env-train --engine rllib --address auto ...     # on a cluster started with ray start --head
 

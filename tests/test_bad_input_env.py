@@ -23,7 +23,7 @@ from uwb_env.envs import ENV_IDS, UWBSchedulingEnv
 
 gym.register_envs(uwb_env)
 
-SUBSET = "uwb_env/IndoorSensorSubset-v0"  # 6 receivers, 3 waveforms, Discrete(20)
+SUBSET = "uwb_env/IndoorSensorSubset-v1"  # 6 receivers, 3 waveforms, Discrete(20)
 
 
 def _make(**kwargs):
@@ -108,7 +108,7 @@ def test_bad_env_keyword_is_refused_with_field_value_and_allowed(kwargs, exc, fi
 
 def test_joint_env_keywords_that_leave_no_plan_are_refused():
     with pytest.raises(ValueError, match="unavailable_waveforms") as info:
-        gym.make("uwb_env/IndoorJoint-v0", unavailable_waveforms=(0, 1, 2))
+        gym.make("uwb_env/IndoorJoint-v1", unavailable_waveforms=(0, 1, 2))
     _assert_names(info.value, "(0, 1, 2)", "at least one valid plan")
     with pytest.raises(ValueError, match="out_of_service_rx") as info:
         gym.make("uwb_env/UrbanWaveform-v2", out_of_service_rx=("rx1", "rx2"))

@@ -224,7 +224,7 @@ def trained(tmp_path_factory) -> pathlib.Path:
     out = tmp_path_factory.mktemp("trained") / "run"
     over = {"n_envs": 2, "eval_freq": 10**9, "eval_episodes": 1, "checkpoint_freq": 64, "n_steps": 64,
             "batch_size": 64, "n_epochs": 1}  # fmt: skip
-    train(TrainConfig("uwb_env/IndoorSensorSubset-v0", "ppo", 128, out, overrides=over), progress=False)
+    train(TrainConfig("uwb_env/IndoorSensorSubset-v1", "ppo", 128, out, overrides=over), progress=False)
     return out
 
 
@@ -262,13 +262,13 @@ def test_a_damaged_run_yaml_on_resume_is_named(tmp_path, trained, capsys):
     run.mkdir()
     (run / "run.yaml").write_text("env_id: [")
     with pytest.raises(SystemExit):
-        train_main(["--out", str(run), "--env", "uwb_env/IndoorSensorSubset-v0", "--algo", "ppo", "--resume",
+        train_main(["--out", str(run), "--env", "uwb_env/IndoorSensorSubset-v1", "--algo", "ppo", "--resume",
                     "--timesteps", "256", "--no-progress"])  # fmt: skip
     assert f"{run / 'run.yaml'}: cannot be read as a training run's configuration" in capsys.readouterr().err
 
 
 def test_a_resume_with_another_seed_is_refused(trained, capsys):
     with pytest.raises(SystemExit):
-        train_main(["--out", str(trained), "--env", "uwb_env/IndoorSensorSubset-v0", "--algo", "ppo", "--resume",
+        train_main(["--out", str(trained), "--env", "uwb_env/IndoorSensorSubset-v1", "--algo", "ppo", "--resume",
                     "--seed", "9", "--timesteps", "256", "--no-progress"])  # fmt: skip
     assert "--resume: seed = 9 differs from the run's 0" in capsys.readouterr().err

@@ -48,7 +48,7 @@ def test_flattened_dict_observation_equals_the_box_observation(env_id, lookahead
 
 
 def test_warmup_dict_keeps_the_box_order_of_all_five_parts():
-    env = gym.make("uwb_env/IndoorSubsetWarmup-v0", include_lookahead=True, observation="dict")
+    env = gym.make("uwb_env/IndoorSubsetWarmup-v1", include_lookahead=True, observation="dict")
     assert list(env.observation_space.spaces) == [
         "tracks",
         "previous_action",
@@ -67,7 +67,7 @@ def test_masks_match_the_action_space_and_are_all_valid_by_default(env_id):
 
 
 def test_a_receiver_out_of_service_masks_every_subset_that_needs_it():
-    env = gym.make("uwb_env/IndoorSensorSubset-v0", out_of_service_rx=("rx2",))
+    env = gym.make("uwb_env/IndoorSensorSubset-v1", out_of_service_rx=("rx2",))
     e = env.unwrapped
     mask = e.action_masks()
     needs_rx2 = np.array([p.active_rx[1] for p in e.plans])
@@ -95,7 +95,7 @@ def test_an_unavailable_waveform_masks_its_actions_and_an_idle_receiver_delivers
     for _ in range(30):
         env.step(1)
         assert all(d.rx == 0 for d in e._last.detections)
-    joint = gym.make("uwb_env/IndoorJoint-v0", unavailable_waveforms=("ns5120",)).unwrapped
+    joint = gym.make("uwb_env/IndoorJoint-v1", unavailable_waveforms=("ns5120",)).unwrapped
     np.testing.assert_array_equal(joint.action_masks(), [p.waveform[0] != 1 for p in joint.plans])
     assert joint.action_masks().sum() == 40
 
@@ -105,7 +105,7 @@ def test_a_maskable_policy_sees_the_mask():
     from sb3_contrib.common.maskable.utils import get_action_masks
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    venv = DummyVecEnv([lambda: gym.make("uwb_env/IndoorSensorSubset-v0", out_of_service_rx=(0,))])
+    venv = DummyVecEnv([lambda: gym.make("uwb_env/IndoorSensorSubset-v1", out_of_service_rx=(0,))])
     venv.reset()
     masks = get_action_masks(venv)
     assert masks.shape == (1, 20) and masks.sum() == 10
@@ -115,7 +115,7 @@ def test_a_maskable_policy_sees_the_mask():
 
 
 def test_describe_action_names_the_waveform_and_the_receivers():
-    e = gym.make("uwb_env/IndoorJoint-v0").unwrapped
+    e = gym.make("uwb_env/IndoorJoint-v1").unwrapped
     assert e.describe_action(0) == "action 0: waveform ns20480; receivers rx1, rx2, rx3"
     assert e.describe_action(59) == "action 59: waveform ns81920; receivers rx4, rx5, rx6"
     u = gym.make("uwb_env/UrbanWaveform-v2").unwrapped
@@ -129,7 +129,7 @@ def test_render_rgb_array_returns_a_frame_titled_with_the_plan(monkeypatch):
     titles = []
     original = matplotlib.axes.Axes.set_title
     monkeypatch.setattr(matplotlib.axes.Axes, "set_title", lambda ax, t, **kw: titles.append(t) or original(ax, t))
-    env = gym.make("uwb_env/IndoorSensorSubset-v0", render_mode="rgb_array")
+    env = gym.make("uwb_env/IndoorSensorSubset-v1", render_mode="rgb_array")
     env.reset(seed=0)
     frame = env.render()
     env.step(19)

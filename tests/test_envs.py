@@ -32,9 +32,9 @@ def test_gymnasium_and_sb3_env_checkers_pass(env_id):
 
 def test_action_spaces_enumerate_the_plans():
     assert gym.make("uwb_env/UrbanWaveform-v2").action_space.n == 6  # 4 seed chirps + 2 at a 7 ms PRI
-    assert gym.make("uwb_env/IndoorSensorSubset-v0").action_space.n == 20  # C(6, 3)
-    assert gym.make("uwb_env/IndoorJoint-v0").action_space.n == 60  # 3 waveforms x C(6, 3)
-    assert gym.make("uwb_env/IndoorSensorSubset-v0", subset_size=2).action_space.n == 15
+    assert gym.make("uwb_env/IndoorSensorSubset-v1").action_space.n == 20  # C(6, 3)
+    assert gym.make("uwb_env/IndoorJoint-v1").action_space.n == 60  # 3 waveforms x C(6, 3)
+    assert gym.make("uwb_env/IndoorSensorSubset-v1", subset_size=2).action_space.n == 15
 
 
 def _rollout(seed, actions, **kw):
@@ -122,7 +122,7 @@ def test_bad_env_arguments_raise():
     with pytest.raises(ValueError, match="fidelity='exact'"):
         gym.make("uwb_env/UrbanWaveform-v2", fidelity="exact")
     with pytest.raises(ValueError, match="subset_size=7"):
-        gym.make("uwb_env/IndoorSensorSubset-v0", subset_size=7)
+        gym.make("uwb_env/IndoorSensorSubset-v1", subset_size=7)
 
 
 def test_episode_length_and_dict_observation():
@@ -196,13 +196,13 @@ def test_compiled_track_slots_equal_the_numpy_reference(n):
 def test_round_robin_cycles_over_the_valid_plans_only():
     """With a receiver out of service, round-robin skips the plans that need it (the env would refuse them); with
     every plan valid it is the plain cycle 0, 1, ..., n - 1."""
-    env = gym.make("uwb_env/IndoorSensorSubset-v0", out_of_service_rx=("rx1",))
+    env = gym.make("uwb_env/IndoorSensorSubset-v1", out_of_service_rx=("rx1",))
     sched = RoundRobin()
     env.reset(seed=0)
     sched.reset(0)
     valid = np.flatnonzero(env.unwrapped.action_masks())
     played = [sched.act(None, env) for _ in range(2 * valid.size)]
     assert played == [*valid.tolist(), *valid.tolist()]
-    plain = gym.make("uwb_env/IndoorSensorSubset-v0")
+    plain = gym.make("uwb_env/IndoorSensorSubset-v1")
     sched.reset(0)
     assert [sched.act(None, plain) for _ in range(25)] == [k % 20 for k in range(25)]

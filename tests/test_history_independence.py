@@ -20,9 +20,9 @@ from uwb_env.agents.campaign import play
 @pytest.mark.parametrize(
     ("env_id", "scheduler", "kwargs"),
     [
-        ("uwb_env/IndoorSensorSubset-v0", "random", {}),
-        ("uwb_env/IndoorSensorSubset-v0", "myopic", {"tracker": "phd"}),
-        ("uwb_env/IndoorSensorSubset-v0", "random", {"tracker": "pf"}),
+        ("uwb_env/IndoorSensorSubset-v1", "random", {}),
+        ("uwb_env/IndoorSensorSubset-v1", "myopic", {"tracker": "phd"}),
+        ("uwb_env/IndoorSensorSubset-v1", "random", {"tracker": "pf"}),
         ("uwb_env/UrbanWaveform-v2", "myopic", {}),
     ],
 )

@@ -14,7 +14,7 @@ from uwb_env.agents.campaign import Campaign, run_campaign
 
 ray = pytest.importorskip("ray")
 
-CAMPAIGN = Campaign("uwb_env/IndoorSensorSubset-v0", ("myopic", "random"), "random", runs=3)
+CAMPAIGN = Campaign("uwb_env/IndoorSensorSubset-v1", ("myopic", "random"), "random", runs=3)
 
 
 def _files(folder):

@@ -18,7 +18,7 @@ from uwb_env.agents.rl import (
 )
 from uwb_env.envs import ENV_IDS as REGISTERED
 
-ENV_IDS = ["uwb_env/UrbanWaveform-v2", "uwb_env/IndoorSensorSubset-v0", "uwb_env/IndoorJoint-v0"]
+ENV_IDS = ["uwb_env/UrbanWaveform-v2", "uwb_env/IndoorSensorSubset-v1", "uwb_env/IndoorJoint-v1"]
 SMALL = {  # a few hundred steps: small rollouts, one evaluation episode, no learning delay
     "n_envs": 2,
     "eval_freq": 10**9,
@@ -163,12 +163,12 @@ def test_the_command_line_names_every_algorithm_without_importing_torch():
 @pytest.mark.parametrize("kind", ["phd", "pf"])
 def test_ppo_trains_and_plays_on_each_particle_tracker(tmp_path, kind):
     """An RL scheduler on the particle trackers (env_kwargs tracker=KIND): the observation carries their one model."""
-    cfg = TrainConfig("uwb_env/IndoorSensorSubset-v0", "ppo", 128, tmp_path / "run", seed=3,
+    cfg = TrainConfig("uwb_env/IndoorSensorSubset-v1", "ppo", 128, tmp_path / "run", seed=3,
                       env_kwargs={"tracker": kind}, overrides={**SMALL, **PER_ALGO["ppo"]})  # fmt: skip
     model = train(cfg, progress=False)
     assert model.num_timesteps == 128
     agent = load_scheduler(tmp_path / "run")
-    e = gym.make("uwb_env/IndoorSensorSubset-v0", tracker=kind)
+    e = gym.make("uwb_env/IndoorSensorSubset-v1", tracker=kind)
     assert e.unwrapped.sim.tracker.kind == kind
     obs, _ = e.reset(seed=5)
     for _ in range(10):

@@ -32,7 +32,7 @@ from uwb_env.envs import ENV_IDS
 
 TINY = {"train_batch_size_per_learner": 128, "minibatch_size": 64, "num_epochs": 1, "fcnet_hiddens": [32, 32],
         "eval_episodes": 1}  # fmt: skip
-MASKED_ID, MASKED_KWARGS = "uwb_env/IndoorSubsetWarmup-v0", {"out_of_service_rx": ["rx1"]}
+MASKED_ID, MASKED_KWARGS = "uwb_env/IndoorSubsetWarmup-v1", {"out_of_service_rx": ["rx1"]}
 
 
 @pytest.fixture(scope="module")
@@ -121,9 +121,9 @@ def test_the_cli_trains_with_the_rllib_engine(tmp_path, local_ray, capsys):
     out = tmp_path / "cli"
     hyper = [f"{k}={v}" for k, v in TINY.items()]
     hyper[-2] = "fcnet_hiddens=[16]"
-    train_main(["--engine", "rllib", "--env", "uwb_env/IndoorJoint-v0", "--timesteps", "100", "--env-runners", "2",
+    train_main(["--engine", "rllib", "--env", "uwb_env/IndoorJoint-v1", "--timesteps", "100", "--env-runners", "2",
                 "--out", str(out), "--no-progress", "--hyper", *hyper])  # fmt: skip
-    assert "trained rllib ppo on uwb_env/IndoorJoint-v0: 1 iterations, 128 steps" in capsys.readouterr().out
+    assert "trained rllib ppo on uwb_env/IndoorJoint-v1: 1 iterations, 128 steps" in capsys.readouterr().out
     assert [i for i, _ in rllib_checkpoints(out)] == [1] and (out / "eval.csv").is_file()
 
 
@@ -134,7 +134,7 @@ def test_the_cli_trains_with_the_rllib_engine(tmp_path, local_ray, capsys):
      ("timesteps", 0), ("address", "")],
 )  # fmt: skip
 def test_bad_config_fields_are_named(field, value, tmp_path):
-    args = {"env_id": "uwb_env/IndoorJoint-v0", "algo": "ppo", "timesteps": 10, "out": tmp_path / "r"}
+    args = {"env_id": "uwb_env/IndoorJoint-v1", "algo": "ppo", "timesteps": 10, "out": tmp_path / "r"}
     with pytest.raises(ValueError, match=rf"^{field}="):
         RLlibTrainConfig(**{**args, field: value})
 
@@ -154,7 +154,7 @@ def test_bad_config_fields_are_named(field, value, tmp_path):
 )
 def test_bad_cli_arguments_exit_2_naming_the_field(argv, named, tmp_path, capsys):
     with pytest.raises(SystemExit) as e:
-        train_main([*argv, "--env", "uwb_env/IndoorJoint-v0", "--out", str(tmp_path / "r"), "--no-progress"])
+        train_main([*argv, "--env", "uwb_env/IndoorJoint-v1", "--out", str(tmp_path / "r"), "--no-progress"])
     assert e.value.code == 2
     assert named in capsys.readouterr().err
     assert not (tmp_path / "r").exists()  # nothing written
@@ -168,9 +168,9 @@ def test_a_folder_that_is_not_an_rllib_run_is_not_a_scheduler(tmp_path):
 def test_a_run_folder_is_refused_without_resume_and_a_resume_must_match(tmp_path):
     """Checked before Ray starts: nothing trains, nothing is written."""
     out = tmp_path / "r"
-    cfg = RLlibTrainConfig(env_id="uwb_env/IndoorJoint-v0", algo="ppo", timesteps=10, out=out, seed=1)
+    cfg = RLlibTrainConfig(env_id="uwb_env/IndoorJoint-v1", algo="ppo", timesteps=10, out=out, seed=1)
     out.mkdir()
-    (out / "run.yaml").write_text("engine: rllib\nenv_id: uwb_env/IndoorJoint-v0\nalgo: ppo\nseed: 0\n")
+    (out / "run.yaml").write_text("engine: rllib\nenv_id: uwb_env/IndoorJoint-v1\nalgo: ppo\nseed: 0\n")
     with pytest.raises(ValueError, match="already holds a training run"):
         train_rllib(cfg)
     with pytest.raises(ValueError, match=r"--resume: seed = 1 differs from the run's 0"):
@@ -181,7 +181,7 @@ def test_a_run_folder_is_refused_without_resume_and_a_resume_must_match(tmp_path
 @pytest.mark.slow
 def test_resume_falls_back_to_the_previous_checkpoint_when_the_newest_is_damaged(tmp_path, local_ray, capsys):
     out = tmp_path / "run"
-    cfg = RLlibTrainConfig(env_id="uwb_env/IndoorJoint-v0", algo="ppo", timesteps=256, out=out, overrides=TINY,
+    cfg = RLlibTrainConfig(env_id="uwb_env/IndoorJoint-v1", algo="ppo", timesteps=256, out=out, overrides=TINY,
                            checkpoint_every=1)  # fmt: skip
     train_rllib(cfg, progress=False)
     (out / "checkpoints" / "iter_000002" / "algorithm_state.pkl").write_bytes(b"cut")

@@ -94,7 +94,7 @@ def test_unknown_kind_is_a_clear_error():
     ):
         TrackerConfig(kind="ukf-phd")
     with pytest.raises(ValueError, match=r"tracker='gm-phd'"):
-        gym.make("uwb_env/IndoorSensorSubset-v0", tracker="gm-phd")
+        gym.make("uwb_env/IndoorSensorSubset-v1", tracker="gm-phd")
 
 
 @pytest.mark.parametrize("kind", AVAILABLE)
@@ -131,9 +131,9 @@ def test_tracker_argument_equals_the_dotted_override_and_the_default():
 @pytest.mark.parametrize("kind", AVAILABLE)
 @pytest.mark.parametrize("scheduler", ["myopic", "random", "lookahead-2"])
 def test_every_tracker_runs_in_the_loop(kind, scheduler):
-    """Myopic, random and two-step lookahead on IndoorSensorSubset-v0 with each tracker: finite rewards, the person
+    """Myopic, random and two-step lookahead on IndoorSensorSubset-v1 with each tracker: finite rewards, the person
     held by a confirmed track in most scans."""
-    env = gym.make("uwb_env/IndoorSensorSubset-v0", tracker=kind)
+    env = gym.make("uwb_env/IndoorSensorSubset-v1", tracker=kind)
     sched = make_scheduler(scheduler)
     obs, _ = env.reset(seed=1)
     sched.reset(1)
@@ -149,7 +149,7 @@ def test_every_tracker_runs_in_the_loop(kind, scheduler):
 
 @pytest.mark.parametrize("kind", AVAILABLE)
 def test_env_checker_passes_with_every_tracker(kind):
-    check_env(gym.make("uwb_env/IndoorSensorSubset-v0", tracker=kind).unwrapped, skip_render_check=True)
+    check_env(gym.make("uwb_env/IndoorSensorSubset-v1", tracker=kind).unwrapped, skip_render_check=True)
 
 
 @pytest.mark.parametrize("q2", [1.0, "pda"])
@@ -157,7 +157,7 @@ def test_env_checker_passes_with_every_tracker(kind):
 def test_lookahead_is_defined_for_every_tracker(kind, q2):
     """The myopic costs exist mid-episode, are finite, and differ between plans (they carry the sensor model);
     with q_2 = "pda" too (the clutter map of range-only impulse measurements)."""
-    env = gym.make("uwb_env/IndoorSensorSubset-v0", tracker=kind, lookahead_q2=q2).unwrapped
+    env = gym.make("uwb_env/IndoorSensorSubset-v1", tracker=kind, lookahead_q2=q2).unwrapped
     env.reset(seed=2)
     for k in range(20):
         env.step(k % env.action_space.n)
@@ -176,8 +176,8 @@ def test_campaign_schemes_name_the_tracker(tmp_path):
     from uwb_env.agents.campaign import Campaign, run_campaign
 
     schemes = (*(f"myopic@{k}" for k in AVAILABLE), "round-robin")
-    run_campaign(Campaign("uwb_env/IndoorSensorSubset-v0", schemes, "round-robin", runs=2), tmp_path, progress=False)
+    run_campaign(Campaign("uwb_env/IndoorSensorSubset-v1", schemes, "round-robin", runs=2), tmp_path, progress=False)
     for kind in AVAILABLE:
         header = (tmp_path / "runs" / f"myopic__{kind}" / "seed-0.csv").read_text().splitlines()[0].split(",")
-        env = gym.make("uwb_env/IndoorSensorSubset-v0", tracker=kind).unwrapped
+        env = gym.make("uwb_env/IndoorSensorSubset-v1", tracker=kind).unwrapped
         assert header[-len(env.sim.tracker.model_names) :] == [f"mu:{m}" for m in env.sim.tracker.model_names]

@@ -18,7 +18,7 @@ import pytest
 from uwb_env.agents.rl import TrainConfig, load_scheduler, train
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-ENV = "uwb_env/IndoorSensorSubset-v0"
+ENV = "uwb_env/IndoorSensorSubset-v1"
 HYPER = {"n_envs": 2, "eval_freq": 10**9, "eval_episodes": 1, "checkpoint_freq": 128, "n_steps": 64,
          "batch_size": 64, "n_epochs": 2}  # fmt: skip
 

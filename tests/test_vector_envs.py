@@ -151,7 +151,7 @@ def test_rllib_ppo_with_two_envs_per_runner():
     try:
         config = (
             PPOConfig()
-            .environment("uwb_env/IndoorSensorSubset-v0")
+            .environment("uwb_env/IndoorSensorSubset-v1")
             .env_runners(num_env_runners=0, num_envs_per_env_runner=2, rollout_fragment_length=64)
             .training(train_batch_size_per_learner=128, minibatch_size=64, num_epochs=1)
             .debugging(seed=0)

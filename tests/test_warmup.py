@@ -11,7 +11,7 @@ from uwb_env.agents import MultiStepLookahead, Myopic
 from uwb_env.lookahead import expected_posterior, lookahead_costs, position_trace, predict_combined, sequence_costs
 from uwb_env.sensing.records import ScanPlan
 
-ENV_ID = "uwb_env/IndoorSubsetWarmup-v0"
+ENV_ID = "uwb_env/IndoorSubsetWarmup-v1"
 
 
 @pytest.fixture(scope="module")
@@ -45,7 +45,7 @@ def test_cold_receivers_deliver_nothing_and_the_ready_set_follows_the_plan():
     env.step(c)  # disjoint from b: nobody delivers, the tracker only predicts
     assert env._last.detections == () and env.sim.k == k_before + 1
     # without warm-up every listening receiver delivers
-    plain = gym.make("uwb_env/IndoorSensorSubset-v0").unwrapped
+    plain = gym.make("uwb_env/IndoorSensorSubset-v1").unwrapped
     plain.reset(seed=0)
     plain.step(a)
     plain.step(b)

@@ -52,7 +52,7 @@ def test_duplicate_registration_and_unsupported_combinations_raise(monkeypatch):
     ("env_id", "kwargs"),
     [
         ("uwb_env/UrbanWaveform-v2", {}),
-        ("uwb_env/IndoorSensorSubset-v0", {}),
+        ("uwb_env/IndoorSensorSubset-v1", {}),
     ],
 )
 def test_signal_fidelity_runs_the_pda_lookahead_on_the_parametric_sensor_model(env_id, kwargs):

@@ -1,6 +1,6 @@
 """The measurement-variance floor (``SensingConfig.min_range_std_m``, ``sensing.parametric.accuracy_snr_caps``).
 
-Issue 16: ``gym.make("uwb_env/IndoorSensorSubset-v0", **{"transmitters.0.power_dbm": 100.0})`` raised
+Issue 16: ``gym.make("uwb_env/IndoorSensorSubset-v1", **{"transmitters.0.power_dbm": 100.0})`` raised
 ``LinAlgError: tracker update: a covariance is not positive definite`` at scan 3 in 13 of 20 episodes, and at +90 dBm
 covariances went non-positive-definite silently: the impulse CRLB's range variance R_1 / SNR had no floor (1e-20 m^2
 and below at those powers).
@@ -49,7 +49,7 @@ def _play(env, n_episodes: int) -> tuple[float, float]:
 @pytest.mark.parametrize("power_dbm", [90.0, 100.0])
 def test_a_strong_valid_transmitter_keeps_every_covariance_positive_definite(power_dbm):
     """The issue's reproduction: 20 episodes at +100 dBm (13 of 20 raised before), +90 dBm (went non-PD silently)."""
-    env = gym.make("uwb_env/IndoorSensorSubset-v0", **{"transmitters.0.power_dbm": power_dbm})
+    env = gym.make("uwb_env/IndoorSensorSubset-v1", **{"transmitters.0.power_dbm": power_dbm})
     min_eig, min_std = _play(env, 20)
     assert min_eig > 0.0
     assert min_std == pytest.approx(5e-5, rel=1e-9)  # the echoes saturate at the floor, none below it
