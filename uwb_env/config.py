@@ -746,12 +746,14 @@ class SignalConfig:
     clock: no alignment); ``normalization = "advance"`` the advance normalization before the CFAR (``"none"``:
     none); ``toa_estimator = "interval"`` the seed's ToA of distributed targets (steps 1-3: a window of
     ``toa_interval_samples`` W_p, at least ``toa_interval_threshold`` T_LIM detections in it, ToA = interval start -
-    T_LIM); ``network = "couples"`` localizes ToA couples of the transmitter's two receivers by ellipse intersection
+    T_LIM, plus ``toa_interval_offset_s``: 0 is the seed's eq. 3); ``network = "couples"`` localizes ToA couples
+    of the transmitter's two receivers by ellipse intersection
     (instead of seed 000's ``nu``-tuples): with ``toa_association`` the couples of the seed's ToA association (steps
     4-7, widening 2 d / c + ``association_correction_s``; ``association_completion``: step 6, isolated ToAs completed
     from the previous scan's couples), without it every Rx1 x Rx2 combination (the ghosts' source);
     ``wall_compensation`` removes the known walls' excess delay from the couple's ranges before the
-    intersection.
+    intersection; a couple's position covariance takes the two ranges' errors as independent of std
+    ``range_std_floor_m`` plus a common part of std ``couple_common_std_m`` (both receivers see the same body).
 
     Seed 004's ToA (``toa_estimator = "hmm"``, :mod:`uwb_env.detection.hmm`): the scan's and the raw empty room's
     energies in bins of ``hmm_bin_s`` from the blind zone's end, the single-capture change statistic O_k per bin
@@ -822,6 +824,8 @@ class SignalConfig:
     toa_association: bool = False
     association_correction_s: float = 0.5e-9
     association_completion: bool = True
+    toa_interval_offset_s: float = 0.0
+    couple_common_std_m: float = 0.0
     network: Literal["nu-tuples", "couples"] = "nu-tuples"
     wall_compensation: bool = False
 
@@ -907,6 +911,8 @@ class SignalConfig:
             )
         _choice("SignalConfig", "toa_association", self.toa_association, (True, False))
         _choice("SignalConfig", "association_completion", self.association_completion, (True, False))
+        _finite("SignalConfig", "toa_interval_offset_s", self.toa_interval_offset_s)
+        _non_negative("SignalConfig", "couple_common_std_m", self.couple_common_std_m)
         _non_negative("SignalConfig", "association_correction_s", self.association_correction_s)
         _choice("SignalConfig", "network", self.network, ("nu-tuples", "couples"))
         _choice("SignalConfig", "wall_compensation", self.wall_compensation, (True, False))

@@ -199,3 +199,40 @@ def test_the_signal_chain_finds_both_persons_on_a_seeded_run():
         hits.append((np.linalg.norm(z[:, None] - truth[None], axis=-1) < 0.75).any(axis=0))
     rate = np.mean(hits, axis=0)
     assert np.all(rate >= 0.35), rate
+
+
+def test_common_range_error_moves_the_position_down_range_only():
+    """Broadside at (0, 3): J g = 1 gives g = (0, 1 / (1 + 3 / sqrt(9.16))); a common part adds sigma_c^2 g g^T."""
+    p = np.array([[0.0, 3.0]])
+    base = couple_covariance(p, TX, RX, 0.1**2)[0]
+    cov = couple_covariance(p, TX, RX, 0.1**2, 0.2**2)[0]
+    gy = 1.0 / (1.0 + 3.0 / np.sqrt(9.16))
+    np.testing.assert_allclose(cov - base, 0.04 * np.array([[0.0, 0.0], [0.0, gy * gy]]), atol=1e-9)
+
+
+def test_interval_estimator_adds_the_configured_offset():
+    """The registry's interval estimator: eq. 3's ToA plus toa_interval_offset_s x fs (0.93 ns at 4.5 GHz = 4.185)."""
+    dec = np.zeros((1, 60), dtype=bool)
+    dec[0, 10:14] = True
+    d = np.ones((1, 60))
+    sig = SignalConfig(toa_interval_samples=15, toa_interval_threshold=3, toa_interval_offset_s=0.93e-9)
+    _, toa, _, _ = toa_estimator("interval").estimate(dec, d, sig, 4.5e9)
+    np.testing.assert_allclose(toa, [9.0 + 4.185], rtol=1e-12)
+
+
+def test_with_the_seeds_window_steps_4_5_keep_exactly_the_couples_within_m():
+    """Seed 001's W_p = 15 samples at 4.5 GHz span 1.0 m of bistatic range, more than m c = 0.8 m + c t_corr = 0.95 m:
+    the interval ToAs of one receiver lie at least W_p apart, their widened intervals never merge, and steps 4-5 keep
+    exactly the Rx1 x Rx2 combinations with |TOA^1 - TOA^2| <= m -- the ones whose ellipses can intersect at all
+    (up to t_corr). 200 random scans of 1-6 ToAs per receiver, spaced >= W_p."""
+    rng = np.random.default_rng(12345)
+    wp = 15 / 4.5e9
+    assert wp > M_S
+    for _ in range(200):
+        t = [np.cumsum(wp + rng.exponential(5e-9, rng.integers(1, 7))) for _ in range(2)]
+        a1, a2, *_ = associate_toas(t[0], t[1], M_S)
+        g1, g2 = all_couples(t[0], t[1])
+        keep = np.abs(g1 - g2) <= M_S
+        got = sorted(zip(a1.round(15).tolist(), a2.round(15).tolist(), strict=True))
+        want = sorted(zip(g1[keep].round(15).tolist(), g2[keep].round(15).tolist(), strict=True))
+        assert got == want

@@ -184,10 +184,15 @@ register_toa_estimator("median", _clustering("median"))
 register_toa_estimator("peak", _clustering("peak"))
 register_toa_estimator("energy-detector", None, replaces_cfar=True)
 register_toa_estimator("hmm", None, replaces_cfar=True)  # seed 004: the sensor's own chain (SignalSensor._hmm)
-register_toa_estimator(  # seed 001 section 3.2 steps 1-3: one ToA per interval of a distributed target
-    "interval",
-    lambda decisions, d, sig, fs: interval_toas(decisions, d, sig.toa_interval_samples, sig.toa_interval_threshold),
-)
+
+
+def _interval(decisions: BoolArray, d: FloatArray, sig: SignalConfig, fs: float) -> Clusters:
+    """Seed 001 section 3.2 steps 1-3 (one ToA per interval of a distributed target), plus the configured offset."""
+    row, toa, weight, peak = interval_toas(decisions, d, sig.toa_interval_samples, sig.toa_interval_threshold)
+    return row, toa + sig.toa_interval_offset_s * fs, weight, peak
+
+
+register_toa_estimator("interval", _interval)
 
 
 # --------------------------------------------------------------------------------------------- normalizations

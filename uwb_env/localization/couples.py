@@ -96,10 +96,15 @@ def compensate_walls(
     return np.where(finite[:, None], r - SPEED_OF_LIGHT_MPS * delay, r)
 
 
-def couple_covariance(p: FloatArray, tx: FloatArray, rx: FloatArray, range_var_m2: float) -> FloatArray:
-    """``(L, 2, 2)`` position covariance sigma_r^2 (J^T J)^-1 of couples at ``p`` ``(L, 2)``; ``rx`` ``(2, 2)``.
+def couple_covariance(
+    p: FloatArray, tx: FloatArray, rx: FloatArray, range_var_m2: float, common_var_m2: float = 0.0
+) -> FloatArray:
+    """``(L, 2, 2)`` position covariance J^-1 Sigma_r J^-T of couples at ``p`` ``(L, 2)``; ``rx`` ``(2, 2)``.
 
-    J's rows are the gradients of the two bistatic ranges, (p - T)/|p - T| + (p - R_k)/|p - R_k|.
+    J's rows are the gradients of the two bistatic ranges, (p - T)/|p - T| + (p - R_k)/|p - R_k|; the ranges'
+    error covariance Sigma_r = ``range_var_m2`` I + ``common_var_m2`` 1 1^T (independent parts, and a part common to
+    both receivers -- the same body surface seen by both -- that moves the position down-range only); with no common
+    part it is sigma_r^2 (J^T J)^-1.
     """
     dt = p - np.asarray(tx, dtype=float)
     ut = dt / np.maximum(np.linalg.norm(dt, axis=-1, keepdims=True), 1e-9)
@@ -107,4 +112,8 @@ def couple_covariance(p: FloatArray, tx: FloatArray, rx: FloatArray, range_var_m
     J = ut[:, None] + dr / np.maximum(np.linalg.norm(dr, axis=-1, keepdims=True), 1e-9)
     info = np.einsum("lki,lkj->lij", J, J)
     info = info + 1e-9 * (np.trace(info, axis1=-2, axis2=-1)[:, None, None] + 1e-12) * np.eye(2)
-    return range_var_m2 * np.linalg.inv(info)
+    cov = range_var_m2 * np.linalg.inv(info)
+    if common_var_m2 > 0.0:  # J^-1 1 1^T J^-T = g g^T with J g = 1
+        g = np.linalg.solve(info, np.einsum("lki,lk->li", J, np.ones(J.shape[:2]))[..., None])[..., 0]
+        cov = cov + common_var_m2 * g[:, :, None] * g[:, None, :]
+    return cov

@@ -879,7 +879,9 @@ class SignalSensor(ParametricModelHooks):
             sel = txi == t
             if sel.any():
                 rx = self.layout.rx_pos[self.pairs[[p1, p2], 1]]
-                R[sel] = couple_covariance(p[sel], self.layout.tx_pos[t], rx, self.range_std_m**2)
+                R[sel] = couple_covariance(
+                    p[sel], self.layout.tx_pos[t], rx, self.range_std_m**2, sig.couple_common_std_m**2
+                )
         density = sig.false_position_density_per_m2
         n = p.shape[0]
         return Detections(
