@@ -17,7 +17,10 @@ from uwb_env.sensing.signal import SignalSensor
 from uwb_env.sim import Simulator, run_episode
 from uwb_env.waveforms.impulse import toa_crlb_variance
 
-CFG = scenarios.get("indoor-rsn", **{"sensing.fidelity": "signal"})
+# seed 000's chains on a point person (its ToAs are the centre's to the CRLB): the accuracy tests below; the
+# scenario's default person is extended since issue 18 (BODY, the tests at the end)
+CFG = scenarios.get("indoor-rsn", **{"sensing.fidelity": "signal", "sensing.signal.target_model": "point"})
+BODY = scenarios.get("indoor-rsn", **{"sensing.fidelity": "signal"})
 
 
 @pytest.fixture(scope="module")
@@ -77,6 +80,42 @@ def test_median_rmse_of_twenty_runs_is_at_most_the_seeds_036_m():
     assert np.median(rmse) <= 0.36
 
 
+def test_body_localizations_spread_over_the_walking_persons_body():
+    """The default extended person (issue 18): the network chain's positions lie within the body's spread of its
+    centre, not at it (the point's: 60 of 61 within 0.1 m, test above)."""
+    body = SignalSensor(BODY)
+    rngs = RngStreams.from_seed(2)
+    ep = body.new_episode(sample_truth(BODY, rngs.truth, body.layout), rngs)
+    plan = ScanPlan.all_listening(0, 1, 6)
+    errors = []
+    for k in range(1, 62):
+        det = body.sense(ep, k, plan)[0]
+        truth = ep.truth.states[k, 0, [0, 2]]
+        errors.append(np.linalg.norm(det.z - truth, axis=1).min() if len(det) else np.inf)
+    errors = np.array(errors)
+    assert np.sum(errors < 0.5) >= 55  # measured 60 of 61
+    assert np.sum(errors < 0.1) <= 10  # measured 4: the near surfaces, 0.13 m towards the transmitter on average
+
+
+def test_tracked_rmse_with_the_body_is_the_seeds_order():
+    """Three runs with the extended person and the trackers' range std of its measured spread (0.23 m): RMSE of
+    seed 000's order (0.36 m on real data), from the body's spread, not from added noise (measured 0.174-0.181 m)."""
+    sim = Simulator(BODY)
+    plan = ScanPlan.all_listening(0, 1, 6)
+    rmse = [run_episode(sim, seed, lambda k: plan, 2.0).rmse() for seed in range(3)]
+    assert all(0.15 < r < 0.30 for r in rmse)
+
+
+@pytest.mark.slow
+def test_median_rmse_of_twenty_runs_with_the_body_is_within_the_seeds_range():
+    """Issue 18's check: 20 runs of the default (extended) person, median RMSE within 0.15-0.65 m (seed 000's real
+    data: 0.36 / 0.61 / 0.54 m for its three tracks)."""
+    sim = Simulator(BODY)
+    plan = ScanPlan.all_listening(0, 1, 6)
+    rmse = [run_episode(sim, seed, lambda k: plan, 2.0).rmse() for seed in range(20)]
+    assert 0.15 <= np.median(rmse) <= 0.65
+
+
 def test_high_snr_toa_spread_is_within_30_percent_of_the_crlb(sensor):
     """400 scans of one pair with an echo at 50 dB: the std of the range error vs c sqrt(CRLB).
 
@@ -113,9 +152,11 @@ def test_signal_fidelity_refuses_scenarios_it_cannot_synthesise():
         scenarios.get("indoor-rsn", **{"sensing.signal.cfar": "xx"})
 
 
-@pytest.mark.parametrize("env_id", ["uwb_env/IndoorSensorSubset-v0", "uwb_env/IndoorJoint-v0"])
+@pytest.mark.parametrize("env_id", ["uwb_env/IndoorSensorSubset-v1", "uwb_env/IndoorJoint-v1"])
 def test_environments_run_on_the_signal_path(env_id):
-    env = gym.make(env_id, fidelity="signal")
+    """A point person (``target_model = "point"``, the behaviour before issue 18): held by scan 15 with the myopic
+    lookahead, whose choice with nothing tracked (every cost equal: plan 0, receivers 1-3) finds it by scan 6."""
+    env = gym.make(env_id, fidelity="signal", **{"sensing.signal.target_model": "point"})
     check_env(env.unwrapped, skip_render_check=True)
     obs, _ = env.reset(seed=1)
     rewards = []
@@ -127,27 +168,58 @@ def test_environments_run_on_the_signal_path(env_id):
     assert rewards[-1] > -10.0  # the person is held with a small covariance by scan 15
 
 
-def test_parametric_detection_probability_is_calibrated_on_the_signal_path(sensor):
-    """indoor-rsn's kappa (fitted by scripts/calibrate_parametric.py) predicts the signal path's Pd of an echo.
+@pytest.mark.parametrize("env_id", ["uwb_env/IndoorSensorSubset-v1", "uwb_env/IndoorJoint-v1"])
+def test_environments_run_on_the_signal_path_with_the_body(env_id):
+    """The default extended person: the env runs; three receivers hold the body less often than the point (its echo
+    is ~3 dB weaker at Pd 0.5 and all three must detect for a position), so plan 0 (receivers 1-3, the far side of
+    the room from the person's start), which the plain argmin keeps while nothing is tracked, does not find it in
+    45 scans; cycling the plans while the costs tie, the person is held from scan 25-29 (seeds 1-3; measured)."""
+    env = gym.make(env_id, fidelity="signal")
+    assert env.unwrapped.cfg.sensing.signal.target_model == "extended"
+    check_env(env.unwrapped, skip_render_check=True)
+    obs, _ = env.reset(seed=1)
+    rewards = []
+    for k in range(30):
+        costs = env.unwrapped.lookahead_costs()
+        obs, r, *_ = env.step(int(np.argmin(costs)) if np.ptp(costs) > 0 else k % costs.size)
+        assert np.all(np.isfinite(obs)) and math.isfinite(r)
+        rewards.append(r)
+    assert rewards[-1] > -10.0  # held by scan 30 (from scan 25 with seed 1)
+
+
+def test_parametric_detection_probability_is_calibrated_on_the_signal_path():
+    """indoor-rsn's kappa, looks and Pfa (fitted by scripts/calibrate_parametric.py) predict the signal path's Pd of
+    the scenario's person: since issue 18 the extended body (Swerling III centres) against the parametric Swerling III
+    person (it was a non-fluctuating point echo against Swerling 0, at 34 / 38 / 30 / 42 dB).
 
     1200 scans per point (200 per pair): binomial std <= 0.0144; the report's largest difference over the whole
-    grid is 0.034, so we allow 0.05 + 3 std here.
+    grid is 0.027, so we allow 0.05 + 3 std here.
     """
     from uwb_env.agents.studies.calibrate_parametric import measure, parametric_pd
 
-    pfa = CFG.sensing.false_alarm_probability
-    kappa = CFG.sensing.clutter_residue_ratio
-    quadrature = (sensor.model._residue_nodes, sensor.model._residue_weights)
-    for w, snr_db in ((0, 34.0), (0, 38.0), (1, 30.0), (2, 42.0)):
-        c = measure(sensor, w, snr_db, 1200, 3.0, 77)
-        model = float(np.mean(parametric_pd(10.0 ** (snr_db / 10.0), sensor.dp_snr[w], kappa, pfa, quadrature)))
+    body = SignalSensor(BODY)
+    assert BODY.sensing.signal.target_model == "extended" and BODY.sensing.detection_gain_db == 0.0
+    pfa = BODY.sensing.false_alarm_probability
+    kappa = BODY.sensing.clutter_residue_ratio
+    quadrature = (body.model._residue_nodes, body.model._residue_weights)
+    swerling = BODY.targets[0].swerling
+    for w, snr_db in ((0, 36.0), (0, 40.0), (1, 32.0), (2, 44.0)):
+        c = measure(body, w, snr_db, 1200, 3.0, 77)
+        snr = 10.0 ** (snr_db / 10.0)
+        model = float(np.mean(parametric_pd(snr, body.dp_snr[w], kappa, pfa, quadrature, swerling)))
         assert 0.1 < model < 0.9  # on the slope, where the check is informative
         assert abs(c["pd"] - model) < 0.05 + 3 * 0.0144
 
 
 def test_range_output_hands_each_pairs_toas_to_the_tracker():
-    """signal.output = "ranges": one bistatic-range record per active pair; the tracker fuses them (RMSE ~ 9 mm)."""
-    cfg = scenarios.get("indoor-rsn", **{"sensing.fidelity": "signal", "sensing.signal.output": "ranges"})
+    """signal.output = "ranges": one bistatic-range record per active pair; the tracker fuses them (RMSE ~ 9 mm).
+
+    On a point person, whose ToAs are the centre's to the CRLB (the default extended person's are spread over its
+    body: tests/unit/test_extended_target.py)."""
+    cfg = scenarios.get(
+        "indoor-rsn",
+        **{"sensing.fidelity": "signal", "sensing.signal.output": "ranges", "sensing.signal.target_model": "point"},
+    )
     sim = Simulator(cfg)
     sim.reset(3)
     plan = ScanPlan(np.array([0]), np.array([True, True, False, True, True, True]))
@@ -167,13 +239,16 @@ def test_range_output_hands_each_pairs_toas_to_the_tracker():
 
 
 # seed 000's CFAR chain on the monostatic scans (the scenario's signal path now estimates ToAs with seed 002's energy
-# detector, tests/unit/test_energy_detector.py); these tests are about the coherent background and the CFAR chain
+# detector, tests/unit/test_energy_detector.py); these tests are about the coherent background and the CFAR chain,
+# on a point echo of known delay (the scenario's default person is extended since issue 18: tests/unit/
+# test_extended_target.py)
 MONO = scenarios.get(
     "indoor-monostatic",
     **{
         "sensing.fidelity": "signal",
         "sensing.signal.toa_estimator": "peak",
         "sensing.signal.false_ranges_per_scan": 0.84,
+        "sensing.signal.target_model": "point",
     },
 )
 

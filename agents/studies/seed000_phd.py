@@ -36,12 +36,14 @@ TRACKERS = ("phd", "imm-lmipda")
 SEED_RMSE_M = {"A": 0.36, "B": 0.61, "C": 0.54}
 
 
-def run(kind: str, fidelity: str, seed: int, false_gate_m: float, target_model: str = "point") -> dict:
+def run(kind: str, fidelity: str, seed: int, false_gate_m: float, target_model: str | None = None) -> dict:
     """One seeded episode with tracker ``kind``: its errors, RMSE and track counts.
 
-    ``target_model``: the signal path's person, ``point`` or ``extended`` (``SignalConfig.target_model``).
+    ``target_model``: the signal path's person, ``point`` or ``extended`` (``SignalConfig.target_model``; None: the
+    scenario's, ``extended``).
     """
-    base = scenarios.get("indoor-rsn", **{"sensing.signal.target_model": target_model})
+    overrides = {} if target_model is None else {"sensing.signal.target_model": target_model}
+    base = scenarios.get("indoor-rsn", **overrides)
     cfg = dataclasses.replace(
         base,
         tracker=dataclasses.replace(base.tracker, kind=kind),
@@ -89,12 +91,15 @@ def main() -> None:
     ap.add_argument(
         "--target-model",
         choices=("point", "extended"),
-        default="point",
-        help="the signal path's person (a body of scattering centres: uwb_env.scene.extended)",
+        default=None,
+        help="the signal path's person (default: the scenario's, extended: a body of scattering centres, "
+        "uwb_env.scene.extended)",
     )
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--out", default="results/seed000-phd")
     args = ap.parse_args()
+    if args.target_model is None:
+        args.target_model = scenarios.get("indoor-rsn").sensing.signal.target_model
     if args.runs < 1:
         raise SystemExit(f"--runs={args.runs}: must be >= 1")
     out = Path(args.out)

@@ -24,10 +24,10 @@ Per run and chain:
 The check (issue 18): with association, 0 ghost tracks in at least 90 % of the runs and both persons tracked.
 
 Run: python scripts/seed001_through_wall.py [--runs 20] [--workers 1] [--set key=value ...] [--out results/seed001]
-Writes summary.md (ours beside the seed's), runs.csv (one row per run and chain), radargrams.png (Figs. 5e-f /
-6a-d-like: background-subtracted, normalized scans and CFAR outputs), toa_association.png (Fig. 6e-f-like: the
-potential simple targets and the associated couples) and positions_tracks.png (Fig. 7-like: positions without and
-with association, tracks vs truth) of run 0.
+Writes summary.md (ours beside the seed's), summary.csv (its numbers per chain), runs.csv (one row per run and chain),
+radargrams.png (Figs. 5e-f / 6a-d-like: background-subtracted, normalized scans and CFAR outputs), toa_association.png
+(Fig. 6e-f-like: the potential simple targets and the associated couples) and positions_tracks.png (Fig. 7-like:
+positions without and with association, tracks vs truth) of run 0.
 """
 
 from __future__ import annotations
@@ -323,6 +323,14 @@ def main() -> None:
         }
 
     a, a6, b = agg("association"), agg("association without step 6"), agg("no association")
+    keys = list(a)
+    (out / "summary.csv").write_text(
+        "\n".join(
+            ["chain," + ",".join(keys)]
+            + [f"{name}," + ",".join(f"{x[k]:.4f}" for k in keys) for name, x in zip(CHAINS, (a, a6, b), strict=True)]
+        )
+        + "\n"
+    )
     holds = a["zero_ghost_tracks"] >= 0.9 and a["both"] >= 0.9
     cmd = (
         f"python scripts/seed001_through_wall.py --runs {args.runs}"
@@ -367,7 +375,8 @@ def main() -> None:
         f"**{'holds' if holds else 'does not hold'}** ({a['zero_ghost_tracks']:.0%} of runs without a ghost track, "
         f"both persons tracked in {a['both']:.0%}).",
         "",
-        "Figures (run 0): radargrams.png, toa_association.png, positions_tracks.png. Per-run rows: runs.csv.",
+        "Figures (run 0): radargrams.png, toa_association.png, positions_tracks.png. Per-chain numbers: summary.csv; "
+        "per-run rows: runs.csv (not committed).",
         "",
         _window_note(cfg),
     ]

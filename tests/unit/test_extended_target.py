@@ -31,6 +31,9 @@ def test_config_defaults_and_validation():
         BodyModelConfig(torso_share=0.0, head_share=0.0, arm_share=0.0, leg_share=0.0)
     with pytest.raises(ValueError, match="body"):
         SignalConfig(body=0.3)
+    assert BODY.range_std_m == 0.0
+    with pytest.raises(ValueError, match="range_std_m"):
+        BodyModelConfig(range_std_m=-0.1)
 
 
 def test_rcs_shares_sum_to_the_mean():
@@ -239,3 +242,73 @@ def test_a_target_born_late_has_finite_echoes():
     for k in range(8):
         scans, _ = sim.sensor.synthesise(ep, k, plan)
         assert np.isfinite(scans).all()
+
+
+@pytest.mark.parametrize(("name", "floor_m", "body_m"), [("indoor-rsn", 0.05, 0.22), ("indoor-monostatic", 0.15, 0.31)])
+def test_indoor_scenarios_default_to_the_extended_person(name, floor_m, body_m):
+    """Issue 18: the indoor scenarios' signal path synthesises the extended person by default, and the trackers'
+    range std adds the body's spread measured on the scenario's chain (scripts/body_spread.py) to the floor."""
+    cfg = scenarios.get(name)
+    sig = cfg.sensing.signal
+    assert sig.target_model == "extended"
+    assert sig.range_std_floor_m == floor_m and sig.body.range_std_m == body_m
+    # the body is the default BodyModelConfig apart from the measured spread
+    assert sig.body == BodyModelConfig(range_std_m=body_m)
+    sim = _signal(name, "extended")
+    assert sim.sensor.range_std_m == pytest.approx(math.hypot(floor_m, body_m), rel=1e-15)
+    sim.reset(4)
+    assert sim.episode.body_phase is not None
+
+
+@pytest.mark.parametrize(("name", "floor_m"), [("indoor-rsn", 0.05), ("indoor-monostatic", 0.15)])
+def test_point_option_keeps_the_point_measurement_model(name, floor_m):
+    """``target_model = "point"``: the body's spread does not enter (the trackers' range std is the floor alone, as
+    before the extended default), the episode has no gait, and the signal config is the pre-issue-18 one apart from
+    the body it ignores."""
+    sim = _signal(name, "point")
+    assert sim.sensor.range_std_m == floor_m
+    sim.reset(4)
+    assert sim.episode.body_phase is None
+    if name == "indoor-rsn":
+        assert apply_overrides(sim.cfg, {"sensing.signal.body": BodyModelConfig()}).sensing.signal == SignalConfig()
+
+
+def test_ranges_carry_the_body_spread():
+    """The per-pair range records (indoor-monostatic's ``output = "ranges"``): the energy detector's variance plus
+    the floor and the body's spread in quadrature; the point option leaves the body's part out."""
+    ext, pnt = _signal("indoor-monostatic", "extended"), _signal("indoor-monostatic", "point")
+    snr = np.array([10.0, 1e3, 1e5])
+    np.testing.assert_allclose(
+        ext.sensor.ed_range_variance(snr, 0) - pnt.sensor.ed_range_variance(snr, 0), 0.31**2, rtol=1e-12
+    )
+
+
+def test_controlled_body_scans_for_the_calibration():
+    """``controlled_scans`` with the extended person (the calibration's echo): at high SNR the chain's ToAs lie
+    where the body's centres do, -0.5 to +0.3 m about the centre's bistatic range, mostly in front of it."""
+    sim = _signal("indoor-rsn", "extended")
+    sim.reset(0)
+    sens, ep = sim.sensor, sim.episode
+    rng = np.random.default_rng(5)
+    p, w, B = 2, 0, 60
+    x = sens.controlled_scans(rng, p, w, 3.0, np.full(B, 1e5))
+    *_, (row, _, _, _), ranges = sens.in_sensor(
+        x,
+        np.broadcast_to(ep.reference[w, p], x.shape),
+        np.full(B, ep.reference_toa[w, p]),
+        np.full(B, ep.reference_peak[w, p]),
+        np.full(B, p),
+        np.broadcast_to(ep.reference_scan[w, p], x.shape),
+    )
+    err = ranges - (sens.baseline[p] + 3.0)
+    near = err[np.abs(err) < 1.0]
+    assert np.unique(row[np.abs(err) < 1.0]).size == B  # every scan detects the person
+    assert -0.5 < near.min() and near.max() < 0.35
+    assert -0.35 < np.median(near) < -0.1  # the torso's near surface
+    # the point option's calibration scans are drawn as before: energy and delay-weighted sum as the pre-issue-18
+    # code (95fccb1) gives them on this machine, to 1e-9 relative (see test_point_model_is_unchanged)
+    pt = _signal("indoor-rsn", "point").sensor
+    a = pt.controlled_scans(np.random.default_rng(5), p, w, 3.0, np.full(4, 1e5))
+    np.testing.assert_allclose(
+        [np.sum(a**2), np.sum(np.abs(a) * np.arange(a.shape[-1]))], [79912863.54893994, 128900252.26017967], rtol=1e-9
+    )
