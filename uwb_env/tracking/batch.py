@@ -33,7 +33,7 @@ from uwb_env.sensing.records import Detections
 from uwb_env.tracking import compiled
 from uwb_env.tracking.compiled import initiate
 from uwb_env.tracking.lmipda import predict_existence
-from uwb_env.tracking.tracker import Tracker, _Candidates
+from uwb_env.tracking.tracker import Tracker, _Candidates, confirm_and_keep
 from uwb_env.tracking.trackset import TrackSet
 from uwb_env.typing import FloatArray, IntArray
 
@@ -105,8 +105,7 @@ class BatchedTracker:
         pd = self._detection_probabilities(trs, fields, start, detections, waveforms, pd_model)
         unused = self._update(trs, fields, start, detections, pd)
         self._initiate(trs, unused, times_s, scan_indices)
-        for tr in trs:  # track management: per environment (module docstring)
-            tr._confirm_and_prune()
+        self._confirm_and_prune(trs)
 
     def scored_predictions(
         self, which: IntArray, times_s: FloatArray, scan_indices: IntArray
@@ -247,6 +246,21 @@ class BatchedTracker:
                 t.mu, t.x, t.P = mu[s], x[s], P[s]
                 t.existence = predict_existence(t.existence, ps)
                 t.age = t.age + 1
+
+    def _confirm_and_prune(self, trs: list[Tracker]) -> None:
+        """Stage 5: confirmation and deletion (``tracker.confirm_and_keep``) over every environment's tracks at once."""
+        tracks = [tr.tracks for tr in trs]
+        start = _starts([len(t) for t in tracks])
+        if start[-1] == 0:
+            return
+        cat = {f: np.concatenate([getattr(t, f) for t in tracks]) for f in ("existence", "confirmed", "age")}
+        x, P = compiled.combine(*(np.concatenate([getattr(t, f) for t in tracks]) for f in ("mu", "x", "P")))
+        confirmed, keep = confirm_and_keep(self.cfg, trs[0].area, cat["existence"], cat["confirmed"], cat["age"], x, P)
+        for e, (tr, t) in enumerate(zip(trs, tracks, strict=True)):
+            s = slice(start[e], start[e + 1])
+            t.confirmed = confirmed[s]
+            if not keep[s].all():
+                tr.tracks = t.select(keep[s])
 
     @staticmethod
     def _gather(trs: list[Tracker], tracks: list[TrackSet], start: IntArray) -> dict[str, np.ndarray]:

@@ -80,6 +80,30 @@ def motion_matrices(
     return F, Q, G
 
 
+def confirm_and_keep(
+    cfg: TrackerConfig,
+    area: FloatArray,
+    existence: FloatArray,
+    confirmed: BoolArray,
+    age: IntArray,
+    x: FloatArray,
+    P: FloatArray,
+) -> tuple[BoolArray, BoolArray]:
+    """Step 5 (module docstring) on N tracks: ``(confirmed (N,), keep (N,))`` after confirmation and deletion.
+
+    ``x (N, 6)``, ``P (N, 6, 6)`` the combined estimates; ``area`` ``[x_min, x_max, y_min, y_max]``. Elementwise,
+    so the tracks of several trackers of one configuration may be concatenated (``tracking.batch``).
+    """
+    confirmed = confirmed | (existence >= cfg.confirm_existence)
+    lost = P[:, 0, 0] + P[:, 2, 2] > 2.0 * cfg.max_position_std_m**2  # position-covariance trace
+    stale = ~confirmed & (age >= cfg.tentative_max_age)  # confirmation time-out
+    x0, x1, y0, y1 = area
+    width, height = x1 - x0, y1 - y0
+    gone = (np.abs(x[:, 0] - (x0 + x1) / 2) > 1.5 * width) | (np.abs(x[:, 2] - (y0 + y1) / 2) > 1.5 * height)
+    gone |= x[:, 1] ** 2 + x[:, 3] ** 2 > (10.0 * cfg.max_speed_mps) ** 2  # no target is that fast
+    return confirmed, (existence >= cfg.terminate_existence) & ~lost & ~stale & ~gone
+
+
 @dataclass(slots=True)
 class _Candidates:
     """Initiation candidates kept from the previous scan."""
@@ -224,17 +248,9 @@ class Tracker(GaussianLookahead):
 
     def _confirm_and_prune(self) -> TrackSet:
         """Step 5 of the scan (module docstring): confirmation, then deletion; returns the tracks kept."""
-        cfg = self.cfg
         t = self.tracks
-        t.confirmed = t.confirmed | (t.existence >= cfg.confirm_existence)
         x, P = t.combined()
-        lost = P[:, 0, 0] + P[:, 2, 2] > 2.0 * cfg.max_position_std_m**2  # position-covariance trace
-        stale = ~t.confirmed & (t.age >= cfg.tentative_max_age)  # confirmation time-out
-        x0, x1, y0, y1 = self.area
-        width, height = x1 - x0, y1 - y0
-        gone = (np.abs(x[:, 0] - (x0 + x1) / 2) > 1.5 * width) | (np.abs(x[:, 2] - (y0 + y1) / 2) > 1.5 * height)
-        gone |= x[:, 1] ** 2 + x[:, 3] ** 2 > (10.0 * cfg.max_speed_mps) ** 2  # no target is that fast
-        keep = (t.existence >= cfg.terminate_existence) & ~lost & ~stale & ~gone
+        t.confirmed, keep = confirm_and_keep(self.cfg, self.area, t.existence, t.confirmed, t.age, x, P)
         if not keep.all():
             self.tracks = t.select(keep)
         return self.tracks
