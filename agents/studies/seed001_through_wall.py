@@ -11,8 +11,11 @@ Both chains compensate the wall (its 0.8 ns excess delay per crossing removed be
 
 Per run and chain:
 
-- ghost positions: localized couples inside the room farther than ``GHOST_M`` from both persons, per scan and per
-  run (the seed: "approximately eight ghost targets could be generated due to the incorrect TOA association");
+- the localized couples by kind (``couple_kinds``): a person's (both ranges near that person's), a cross ghost
+  (Rx1's range near one person's, Rx2's near the other's: the seed's ghost, "approximately eight ghost targets could
+  be generated due to the incorrect TOA association") or a false-alarm couple (the seed: "considerably" more than
+  the ghosts, "confirmed during association phase"); the cross ghosts the walks make with exact ranges
+  (``cross_geometric``); positions off the persons: localized couples farther than ``GHOST_M`` from both;
 - hit rate: scans in which a person has a localized couple within ``GHOST_M``;
 - tracks: a ghost track is a confirmed track whose median distance to the nearer person over its confirmed scans
   exceeds ``GATE_M`` (a track of no one: the seed's ghost trajectories); a false track (``uwb_env.metrics.
@@ -24,6 +27,7 @@ Per run and chain:
 The check (issue 18): with association, 0 ghost tracks in at least 90 % of the runs and both persons tracked.
 
 Run: python scripts/seed001_through_wall.py [--runs 20] [--workers 1] [--set key=value ...] [--out results/seed001]
+(``--calibrate RUNS``: only the range-error model's measurement, ``calibrate``)
 Writes summary.md (ours beside the seed's), summary.csv (its numbers per chain), runs.csv (one row per run and chain),
 radargrams.png (Figs. 5e-f / 6a-d-like: background-subtracted, normalized scans and CFAR outputs), toa_association.png
 (Fig. 6e-f-like: the potential simple targets and the associated couples) and positions_tracks.png (Fig. 7-like:
@@ -44,12 +48,17 @@ import numpy as np
 from uwb_env import scenarios
 from uwb_env.config import ScenarioConfig
 from uwb_env.constants import SPEED_OF_LIGHT_MPS
+from uwb_env.localization.couples import array_frame, couple_positions
 from uwb_env.metrics import TrackAccounting
 from uwb_env.sensing.records import ScanPlan
 from uwb_env.sim import Simulator
 
 GHOST_M = 0.75
 """A localized couple farther than this from both persons is a ghost position [m]."""
+ATTRIBUTION_M = 0.4
+"""A couple's range within this of a person's bistatic range is that person's (3 sigma of the ToA error) [m]."""
+CALIBRATION_GATE_M = 0.5
+"""``calibrate``: a ToA within this of a person's bistatic range is that person's [m]."""
 GATE_M = 1.0
 """Track-to-person assignment gate [m] (``TrackAccounting``)."""
 TRACKED_FRACTION = 0.5
@@ -73,6 +82,57 @@ def scenario(chain: str, overrides: dict[str, Any]) -> ScenarioConfig:
     return scenarios.get("through-wall", **{"sensing.fidelity": "signal", **CHAINS[chain], **overrides})
 
 
+def _array(cfg: ScenarioConfig) -> tuple[np.ndarray, np.ndarray]:
+    """``(tx (2,), rx (2, 2))`` of the through-wall radar."""
+    return np.asarray(cfg.transmitters[0].position_m, dtype=float), np.array([r.position_m for r in cfg.receivers])
+
+
+def bistatic(p: np.ndarray, array: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """``(L, 2)`` bistatic ranges (no walls) of positions ``p`` ``(L, 2)`` to Rx1 and Rx2 [m]."""
+    tx, rx = array
+    return np.linalg.norm(p - tx, axis=-1)[:, None] + np.linalg.norm(p[:, None] - rx[None], axis=-1)
+
+
+def couple_kinds(z: np.ndarray, truth: np.ndarray, array: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """``(L,)`` kind of each localized couple at ``z`` ``(L, 2)``: 0 a person's, 1 a cross ghost, 2 a false alarm's.
+
+    The couple's ranges are those of its position (the intersection is exact; walls already removed), compared with
+    the persons' ``truth`` ``(K, 2)``: both within ``ATTRIBUTION_M`` of one person: that person's couple; Rx1's of
+    one person and Rx2's of another: a cross ghost (seed 001's ghost: "the incorrect TOA association" of two
+    persons' ToAs); otherwise a couple with at least one false alarm.
+    """
+    if z.shape[0] == 0:
+        return np.zeros(0, np.int64)
+    near = np.abs(bistatic(z, array)[:, None, :] - bistatic(truth, array)[None]) < ATTRIBUTION_M  # (L, K, 2)
+    person = (near[..., 0] & near[..., 1]).any(axis=1)
+    cross = near[..., 0].any(axis=1) & near[..., 1].any(axis=1) & ~person  # two different persons
+    return np.where(person, 0, np.where(cross, 1, 2))
+
+
+def cross_geometric(truth: np.ndarray, array: tuple[np.ndarray, np.ndarray], cfg: ScenarioConfig) -> int:
+    """The cross ghosts the two walks themselves create, ``truth`` ``(S, K, 2)`` the persons' positions.
+
+    Per scan, the persons' exact ranges crossed (Rx1's of one, Rx2's of the other), intersected, inside the
+    surveillance area and farther than ``GHOST_M`` from both persons: the count a chain that detected every ToA
+    exactly would show without association.
+    """
+    tx, rx = array
+    e, n, beta = array_frame(tx, rx[0], rx[1], np.array([0.0, 1.0]))
+    area = cfg.surveillance_area
+    count = 0
+    for pos in truth:  # scans
+        r = bistatic(pos, array)  # (K, 2)
+        K = r.shape[0]
+        i, j = (a.ravel() for a in np.meshgrid(np.arange(K), np.arange(K), indexing="ij"))
+        sel = i != j
+        p, ok = couple_positions(r[i[sel], 0], r[j[sel], 1], tx, e, n, beta)
+        inside = (p[:, 0] >= area.x_min_m) & (p[:, 0] <= area.x_max_m) & (p[:, 1] >= area.y_min_m)
+        inside &= p[:, 1] <= area.y_max_m
+        far = np.linalg.norm(p[:, None] - pos[None], axis=-1).min(axis=1) > GHOST_M
+        count += int(np.sum(ok & inside & far))
+    return count
+
+
 def run(seed: int, overrides: dict[str, Any], keep: bool = False) -> dict[str, Any]:
     """Both chains on run ``seed``; ``keep``: also the per-scan positions and tracks (for the figures)."""
     out: dict[str, Any] = {"seed": seed}
@@ -82,7 +142,11 @@ def run(seed: int, overrides: dict[str, Any], keep: bool = False) -> dict[str, A
         plan = ScanPlan.all_listening(0, sim.sensor.n_tx, sim.sensor.n_rx)
         sim.reset(seed)
         acc = TrackAccounting(sim.truth.n_targets, GATE_M)
+        array = _array(cfg)
+        if "cross_geometric" not in out:  # the walks' own cross couples: the same in every chain
+            out["cross_geometric"] = cross_geometric(sim.truth.states[1:][..., [0, 2]], array, cfg)
         ghosts, hits, positions, tracks = [], [], [], []
+        kinds = np.zeros(3, np.int64)  # person couples, cross ghosts, false-alarm couples
         track_dist: dict[int, list[float]] = {}
         while not sim.done:
             res = sim.step(plan)
@@ -91,6 +155,7 @@ def run(seed: int, overrides: dict[str, Any], keep: bool = False) -> dict[str, A
             z = np.concatenate([d.z for d in res.detections]) if res.detections else np.zeros((0, 2))
             dist = np.linalg.norm(z[:, None] - truth[None], axis=-1)  # (L, K)
             ghosts.append(int(np.sum(dist.min(axis=1, initial=np.inf) > GHOST_M)))
+            kinds += np.bincount(couple_kinds(z, truth, array), minlength=3)
             hits.append((dist < GHOST_M).any(axis=0))
             x, _ = res.tracks.combined()
             acc.add(res.tracks.ids, res.tracks.confirmed, x[:, [0, 2]], truth, sim.truth.alive[k])
@@ -107,6 +172,9 @@ def run(seed: int, overrides: dict[str, Any], keep: bool = False) -> dict[str, A
         coverage = acc.coverage()
         out[name] = {
             "ghost_positions": int(np.sum(ghosts)),
+            "person_couples": int(kinds[0]),
+            "cross_ghosts": int(kinds[1]),
+            "false_couples": int(kinds[2]),
             "ghosts_per_scan": float(np.mean(ghosts)),
             "hit_rate": np.mean(hits, axis=0),
             "ghost_tracks": sum(float(np.median(v)) > GATE_M for v in track_dist.values()),
@@ -153,6 +221,45 @@ def traces(seed: int, overrides: dict[str, Any]) -> dict[str, Any]:
         "truth_pos": sim.truth.states[1:][..., [0, 2]],
         "wall_m": wall,
         "cfg": cfg,
+    }
+
+
+def calibrate(seeds: list[int], overrides: dict[str, Any]) -> dict[str, float]:
+    """The couples' range-error model measured on runs ``seeds``.
+
+    The scenario's ``toa_interval_offset_s``, ``range_std_floor_m`` and ``couple_common_std_m``. Per scan and
+    person whose bistatic range both receivers have a ToA within ``CALIBRATION_GATE_M`` of, the errors
+    e_k = ToA range - the body centre's range (walls included). e_k = c + i_k with c common to both receivers (the
+    same body surface) and i_k independent: E[(e_1 - e_2)^2] / 2 = sigma_i^2 (a residual bias between the receivers
+    included), var((e_1 + e_2) / 2) = sigma_c^2 + sigma_i^2 / 2. Returns the mean error (the interval ToA's bias
+    towards the body front), the offset that removes it, sigma_i, sigma_c, the samples and the persons' ToA rate.
+    """
+    e, n_slots = [], 0
+    for seed in seeds:  # runs: a few
+        tr = traces(seed, overrides)
+        for k, toas in enumerate(tr["toas"]):  # scans
+            truth = tr["truth_range"][k]  # (2, K)
+            for j in range(truth.shape[1]):  # persons: two
+                n_slots += 1
+                pair = []
+                for i in range(2):  # receivers
+                    d = toas[i] - truth[i, j]
+                    if d.size and np.abs(d).min() < CALIBRATION_GATE_M:
+                        pair.append(float(d[np.argmin(np.abs(d))]))
+                if len(pair) == 2:
+                    e.append(pair)
+    err = np.array(e)
+    mean = float(err.mean())
+    ind2 = float(np.mean((err[:, 0] - err[:, 1]) ** 2) / 2.0)
+    com2 = float(np.var(err.mean(axis=1)) - ind2 / 2.0)
+    sig = scenario("association", overrides).sensing.signal
+    return {
+        "mean_error_m": mean,
+        "toa_interval_offset_s": sig.toa_interval_offset_s - mean / SPEED_OF_LIGHT_MPS,
+        "range_std_floor_m": float(np.sqrt(ind2)),
+        "couple_common_std_m": float(np.sqrt(max(com2, 0.0))),
+        "samples": float(err.shape[0]),
+        "both_receivers_rate": err.shape[0] / max(n_slots, 1),
     }
 
 
@@ -211,7 +318,8 @@ def _figures(out: Path, tr: dict[str, Any], rec: dict[str, Any]) -> list[str]:
     for a, name in zip(axes[:2], ("no association", "association"), strict=True):
         z = np.concatenate(rec[name]["positions"])
         a.plot(z[:, 0], z[:, 1], ".", ms=2, color="tab:blue")
-        a.set_title(f"positions, {name} ({rec[name]['ghost_positions']} ghosts)", fontsize=9)
+        c = rec[name]
+        a.set_title(f"positions, {name} ({c['cross_ghosts']} cross ghosts, {c['ghost_positions']} off)", fontsize=9)
     a = axes[2]
     ids = np.concatenate([t[0] for t in rec["association"]["tracks"]])
     xy = np.concatenate([t[1] for t in rec["association"]["tracks"]])
@@ -250,9 +358,14 @@ def _window_note(cfg: ScenarioConfig) -> str:
         "W_p apart, their widened intervals never merge, and steps 4-5 keep exactly the Rx1 x Rx2 couples whose "
         f"ranges differ by at most m c -- those whose ellipses can meet at all (|r1 - r2| <= |Rx1 Rx2| = "
         f"{aperture:.2f} m) up to t_corr. Our exact two-ellipse intersection rejects the others by itself, so "
-        "without step 6 the association and no association give the same positions; the seed's ghosts must come "
-        "from couples its localization turned into positions anyway. The ghosts left are couples of a person's ToA "
-        "with a false alarm within m, which the association keeps as well."
+        "without step 6 the association and no association give the same positions: the association removes no "
+        "cross ghost that intersects (the seed's deghosting needs a localization that turns the other couples "
+        "into positions too; its 'ghost positions would form two additional continuous trajectories'). Cross "
+        "ghosts need the two persons' ranges within m of each other across the receivers; there the interval ToA "
+        "of each receiver often merges the two traces into one (the seed's 'losses TOA in the case of the target "
+        "trace crossing'), so the chain's couples hold fewer cross ghosts than the walks' exact ranges make. Step "
+        "6 repeats a previous scan's couple for an isolated ToA near it, false-alarm couples (a static clutter "
+        "residue seen by both receivers) included: more persons' and more false couples."
     )
 
 
@@ -280,10 +393,15 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1))
     ap.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE", help="scenario overrides (dotted keys)")
     ap.add_argument("--out", default="results/seed001")
+    ap.add_argument("--calibrate", type=int, default=0, metavar="RUNS", help="measure the range-error model only")
     args = ap.parse_args()
     if args.runs < 1:
         raise SystemExit(f"--runs={args.runs}: must be >= 1")
     overrides = _parse_sets(args.set)
+    if args.calibrate:
+        cal = calibrate(list(range(args.calibrate)), overrides)
+        print("\n".join(f"{k}: {v:.4g}" for k, v in cal.items()))
+        return
     scenario("association", overrides)  # a bad override fails here, before the pool starts
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -292,14 +410,15 @@ def main() -> None:
         futures = [pool.submit(run, s, overrides, s == 0) for s in seeds]
         runs = [f.result() for f in futures]
     rows = [
-        "chain,seed,ghost_positions,ghosts_per_scan,hit_rate_1,hit_rate_2,ghost_tracks,false_tracks,coverage_1,"
-        "coverage_2,rmse_m"
+        "chain,seed,cross_ghosts,cross_geometric,false_couples,person_couples,ghost_positions,ghosts_per_scan,"
+        "hit_rate_1,hit_rate_2,ghost_tracks,false_tracks,coverage_1,coverage_2,rmse_m"
     ]
     for r in runs:
         for name in CHAINS:
             c = r[name]
             rows.append(
-                f"{name},{r['seed']},{c['ghost_positions']},{c['ghosts_per_scan']:.4f},{c['hit_rate'][0]:.4f},"
+                f"{name},{r['seed']},{c['cross_ghosts']},{r['cross_geometric']},{c['false_couples']},"
+                f"{c['person_couples']},{c['ghost_positions']},{c['ghosts_per_scan']:.4f},{c['hit_rate'][0]:.4f},"
                 f"{c['hit_rate'][1]:.4f},{c['ghost_tracks']},{c['false_tracks']},{c['coverage'][0]:.4f},"
                 f"{c['coverage'][1]:.4f},"
                 f"{c['rmse_m']:.4f}"
@@ -311,6 +430,10 @@ def main() -> None:
     def agg(name: str) -> dict[str, float]:
         c = [r[name] for r in runs]
         return {
+            "cross_ghosts_per_run": float(np.mean([x["cross_ghosts"] for x in c])),
+            "cross_geometric_per_run": float(np.mean([r["cross_geometric"] for r in runs])),
+            "false_couples_per_scan": float(np.mean([x["false_couples"] for x in c])) / cfg.n_scans,
+            "person_couples_per_scan": float(np.mean([x["person_couples"] for x in c])) / cfg.n_scans,
             "ghosts_per_scan": float(np.mean([x["ghosts_per_scan"] for x in c])),
             "ghosts_per_run": float(np.mean([x["ghost_positions"] for x in c])),
             "hit": float(np.mean([x["hit_rate"] for x in c])),
@@ -343,8 +466,13 @@ def main() -> None:
         f"Command: `{cmd}`",
         "",
         f"Scenario `through-wall` on its signal path, {cfg.n_scans} scans of {cfg.sensing.scan_period_s} s; the "
-        "chains on identical scans. Ghost position: a localized couple inside the room farther than "
-        f"{GHOST_M} m from both persons. Ghost track: a confirmed track whose median distance to the nearer person "
+        "chains on identical scans. A localized couple is a person's when both its ranges lie within "
+        f"{ATTRIBUTION_M} m of that person's bistatic ranges, a cross ghost (the seed's ghost: the incorrect "
+        "association of two persons' ToAs) when Rx1's lies near one person's and Rx2's near the other's, else a "
+        "false-alarm couple; the walks' own cross ghosts: the persons' exact ranges crossed and intersected, "
+        f"inside the room and farther than {GHOST_M} m from both (what a chain detecting every ToA exactly "
+        f"would make without association). Position off the persons: a localized couple farther than {GHOST_M} m "
+        "from both persons (any kind). Ghost track: a confirmed track whose median distance to the nearer person "
         f"exceeds {GATE_M} m. False track: matched one-to-one (gate {GATE_M} m) to a person in fewer than half its "
         "confirmed scans (ghosts, duplicates, tracks held far off). Tracked: a confirmed track holds the person in >= "
         f"{TRACKED_FRACTION:.0%} of the scans. RMSE: median over runs of the held scans' track error to the body "
@@ -353,11 +481,22 @@ def main() -> None:
         "| | association (seed 001, steps 1-7) | association without step 6 | no association (every Rx1 x Rx2 "
         "couple) | seed 001 |",
         "| --- | --- | --- | --- | --- |",
-        _row("ghost positions per scan", [f"{x['ghosts_per_scan']:.3f}" for x in (a, a6, b)], ""),
         _row(
-            "ghost positions per run",
-            [f"{x['ghosts_per_run']:.1f}" for x in (a, a6, b)],
-            f"~{SEED['ghosts']} ghost targets without association (two extra trajectories)",
+            "cross ghosts per run (seed's ghosts)",
+            [f"{x['cross_ghosts_per_run']:.1f}" for x in (a, a6, b)],
+            f"~{SEED['ghosts']} ghost targets without association (two extra trajectories), none with it",
+        ),
+        _row("the walks' own cross ghosts per run (exact ranges)", [f"{a['cross_geometric_per_run']:.1f}"] * 3, ""),
+        _row(
+            "false-alarm couples per scan",
+            [f"{x['false_couples_per_scan']:.3f}" for x in (a, a6, b)],
+            "more than the ghosts, kept by the association",
+        ),
+        _row("persons' couples per scan", [f"{x['person_couples_per_scan']:.3f}" for x in (a, a6, b)], ""),
+        _row(
+            f"positions off the persons (> {GHOST_M} m) per scan",
+            [f"{x['ghosts_per_scan']:.3f}" for x in (a, a6, b)],
+            "",
         ),
         _row(f"person's position within {GHOST_M} m (scans)", [f"{x['hit']:.1%}" for x in (a, a6, b)], ""),
         _row("runs with 0 ghost tracks", [f"{x['zero_ghost_tracks']:.0%}" for x in (a, a6, b)], "(ghosts removed)"),

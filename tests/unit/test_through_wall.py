@@ -45,6 +45,28 @@ def test_advance_normalization_lifts_the_far_echo_to_one_and_is_batched():
     np.testing.assert_array_equal(NORMALIZATIONS.get("none")(x), x)
 
 
+def test_advance_normalization_lets_a_maximum_own_a_target_extent_after_it():
+    """w = 1 on x = [1, 4, 2, 3, 0.5, 1, 0, 0]: divisors max(x[n - 1:]) = [4, 4, 4, 3, 3, 1, 1, 0]."""
+    x = np.array([1.0, 4.0, 2.0, 3.0, 0.5, 1.0, 0.0, 0.0])
+    np.testing.assert_allclose(advance_normalization(x, 1), [0.25, 1.0, 0.5, 1.0, 0.5 / 3, 1.0, 0.0, 0.0], rtol=1e-15)
+    np.testing.assert_array_equal(advance_normalization(x, 0), advance_normalization(x))
+
+
+def test_advance_normalization_keeps_an_echos_tail_under_its_peak():
+    """An echo 10 decaying 8, 6, 4, 2 over a floor 0.1: sample by sample (w = 0) the monotone tail is its own
+    hierarchy of maxima, a plateau of ones; with w = 5 the tail is divided by the peak (0.8 ... 0.2) and the floor
+    beyond the echo's extent is lifted to 1 as before."""
+    x = np.full(30, 0.1)
+    x[5:10] = [10.0, 8.0, 6.0, 4.0, 2.0]
+    np.testing.assert_allclose(advance_normalization(x)[5:10], 1.0)
+    y = advance_normalization(x, 5)
+    np.testing.assert_allclose(y[5:10], [1.0, 0.8, 0.6, 0.4, 0.2])
+    np.testing.assert_allclose(y[:5], 0.01)
+    np.testing.assert_allclose(y[15:], 1.0)
+    np.testing.assert_array_equal(NORMALIZATIONS.get("advance")(x, 5), y)
+    np.testing.assert_array_equal(NORMALIZATIONS.get("none")(x, 5), x)
+
+
 # ------------------------------------------------------------------------------------------ steps 1-3
 def test_interval_toas_give_interval_start_minus_t_lim():
     """Row 0: detections at 10-13 and 16 (W_p = 15, T_LIM = 3): the window first holds 3 at 12 -> ToA 9, the interval
@@ -164,6 +186,29 @@ def test_through_wall_scenario_holds_the_seeds_values():
     assert sig.n_samples / sig.sample_rate_hz == pytest.approx(113.6e-9, rel=1e-3)  # the seed's 114 ns
     assert cfg.sensing.scan_period_s == 0.074
     assert len(cfg.targets) == 2
+    # the room's static paths lie behind the wall: seed 002's -3 dB less two crossings of the brick
+    assert sig.multipath_power_ratio_db == pytest.approx(-3.0 - 2.0 * cfg.walls[0].material.loss_db)
+
+
+def test_the_chains_cfar_holds_its_design_false_alarm_rate_on_noise():
+    """The CFAR compares powers: on the amplitude envelope of the background-subtracted scan, the noise beyond the
+    room's last static path (bistatic range > 28 m) is detected at about the design Pfa 1e-2 (4.5e-3 - 7e-3
+    measured: the envelope's correlated samples); on the square-law envelope itself (power^2) it was 5.9e-2."""
+    from uwb_env.sensing.records import ScanPlan
+    from uwb_env.sim import Simulator
+
+    cfg = scenarios.get("through-wall", **{"sensing.fidelity": "signal", "n_scans": 30})
+    sim = Simulator(cfg)
+    sim.reset(3)
+    s, ep = sim.sensor, sim.episode
+    plan = ScanPlan.all_listening(0, 1, 2)
+    axis = s.baseline[0] + 299792458.0 * (np.arange(511) - ep.reference_peak[0, 0]) / cfg.sensing.signal.sample_rate_hz
+    far = axis > 28.0
+    rates = []
+    for k in range(1, cfg.n_scans + 1):
+        scans, active = s.synthesise(ep, k, plan)
+        rates.append(s.detect(ep, k, plan, scans, active).decisions[:, far].mean())
+    assert 2e-3 < np.mean(rates) < 1.5e-2, np.mean(rates)
 
 
 def test_bad_seed001_config_raises_naming_the_field():

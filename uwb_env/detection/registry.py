@@ -196,12 +196,13 @@ register_toa_estimator("interval", _interval)
 
 
 # --------------------------------------------------------------------------------------------- normalizations
-def _identity(d: FloatArray) -> FloatArray:
+def _identity(d: FloatArray, target_samples: int = 0) -> FloatArray:
     return d
 
 
-NORMALIZATIONS: Registry[Callable[[FloatArray], FloatArray]] = Registry("sensing.signal.normalization")
-"""``sensing.signal.normalization``: the weak-signal enhancement before the CFAR, ``(B, N) -> (B, N)``."""
+NORMALIZATIONS: Registry[Callable[[FloatArray, int], FloatArray]] = Registry("sensing.signal.normalization")
+"""``sensing.signal.normalization``: the weak-signal enhancement before the CFAR, ``(d (B, N), target_samples) ->
+(B, N)``; ``target_samples`` a target's extent (the signal path passes ``toa_interval_samples``, seed 001's W_p)."""
 NORMALIZATIONS.register("none", _identity)
 NORMALIZATIONS.register("advance", advance_normalization)  # seed 001 section 2
 

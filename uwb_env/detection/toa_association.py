@@ -26,10 +26,12 @@ from uwb_env.typing import BoolArray, FloatArray, IntArray
 
 
 # ------------------------------------------------------------------------------------------ advance normalization
-def advance_normalization(x: FloatArray) -> FloatArray:
+def advance_normalization(x: FloatArray, target_samples: int = 0) -> FloatArray:
     r"""Seed 001's advance normalization (section 2, [14]): each sample over the hierarchical maximum beyond it.
 
-    Args: x ``(..., N)`` non-negative magnitudes along propagation time (the background-subtracted envelope).
+    Args: x ``(..., N)`` non-negative magnitudes along propagation time (the background-subtracted envelope);
+    target_samples: w, a target's extent [samples] (seed 001: W_p = 15, a person), the samples a maximum owns after it
+    (0: the literal sample-wise hierarchy).
     Returns: ``(..., N)`` the normalized scan in [0, 1]; an all-zero tail stays zero.
 
     Notes:
@@ -43,11 +45,23 @@ def advance_normalization(x: FloatArray) -> FloatArray:
 
         Because n_j is the maximum of everything after n_{j-1}, x[n_j] = max_{k >= n} x[k] for every n in the
         segment, so the hierarchy is the reverse cumulative maximum, computed in one pass. Each target's echo
-        peaks at 1 when nothing stronger lies beyond it, and the reference cells a CFAR takes just behind a strong
-        echo are lifted with the weaker echoes there (less masking of the farther target).
+        peaks at 1 when nothing stronger lies beyond it.
+
+        Taken sample by sample (w = 0) the hierarchy degenerates on an echo's decaying tail: every sample of a
+        monotone tail is the maximum of what follows it, so the tail becomes a plateau of ones down to the level of
+        whatever lies beyond (on the signal path, the noise: the plateau spans the whole body echo's trailing part).
+        A cell-averaging CFAR then finds that plateau in its lagging reference cells and misses the echo's leading
+        edge -- the very samples the interval ToA (eq. 3) is read from, in each receiver differently (on the
+        seed 001 replica: receiver 2's ToAs 0.1-0.3 m later than receiver 1's, positions pulled 0.5-1 m towards the
+        array's axis; the persons held in half the scans). A maximum belongs to a target that extends over w
+        samples, so the search for the next maximum starts after it: a sample n is normalized by the largest sample
+        from n - w on, :math:`y[n] = x[n] / \max_{k \ge n - w} x[k]` -- a target's own tail keeps its shape
+        under its peak, the noise and weaker echoes beyond it are lifted as before.
     """
     x = np.asarray(x, dtype=float)
     peak = np.flip(np.maximum.accumulate(np.flip(x, axis=-1), axis=-1), axis=-1)
+    if target_samples > 0:  # the maximum from n - w on: the reverse cumulative maximum read w samples earlier
+        peak = peak[..., np.maximum(np.arange(x.shape[-1]) - int(target_samples), 0)]
     return np.divide(x, peak, out=np.zeros_like(x), where=peak > 0.0)
 
 

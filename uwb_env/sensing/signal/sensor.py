@@ -512,15 +512,18 @@ class SignalSensor(ParametricModelHooks):
         elif sig.background == "exponential-coherent":
             if ref_scan is None:
                 raise ValueError("background = 'exponential-coherent' needs the raw background scans (ref_scan)")
-            # seed 001: the raw scan less its exponential average (a common clock: no alignment), then the envelope
-            d = square_law_envelope(scans - ref_scan, self.lpf)
+            # seed 001: the raw scan less its exponential average (a common clock: no alignment), then its amplitude
+            # envelope (the square root of the square-law envelope): the CFAR compares d^2, the power, as its
+            # threshold factor assumes (on the square-law envelope itself it compared power^2: on exponential powers
+            # a design Pfa of 1e-2 gives 5.4e-2)
+            d = np.sqrt(square_law_envelope(scans - ref_scan, self.lpf))
             d[blind] = 0.0
-            d = self.normalize(d)
+            d = self.normalize(d, sig.toa_interval_samples)
             decisions = self._cfar(d)
         else:
             d = rectified_difference(aligned, ref)
             d[blind] = 0.0
-            d = self.normalize(d)
+            d = self.normalize(d, sig.toa_interval_samples)
             decisions = self._cfar(d)
         clusters = self.toa.estimate(decisions, d, sig, self.fs)
         row, toa_s = clusters[0], clusters[1]
