@@ -34,6 +34,7 @@ from uwb_env.tracking import compiled
 from uwb_env.tracking.compiled import initiate
 from uwb_env.tracking.lmipda import predict_existence
 from uwb_env.tracking.tracker import Tracker, _Candidates, confirm_and_keep
+from uwb_env.tracking.trackset import FIELDS as _FIELDS
 from uwb_env.tracking.trackset import TrackSet
 from uwb_env.typing import FloatArray, IntArray
 
@@ -98,10 +99,8 @@ class BatchedTracker:
         each transmitter sent (for the detection probabilities). The trackers' ``tracks`` hold the result.
         """
         trs = self.trackers if which is None else [self.trackers[e] for e in which]
-        self._predict(trs, times_s, scan_indices)
-        tracks = [tr.tracks for tr in trs]
-        start = _starts([len(t) for t in tracks])
-        fields = self._gather(trs, tracks, start)
+        start, fields = self._gather(trs)
+        self._predict(trs, start, fields, times_s, scan_indices)
         pd = self._detection_probabilities(trs, fields, start, detections, waveforms, pd_model)
         unused = self._update(trs, fields, start, detections, pd)
         self._initiate(trs, unused, times_s, scan_indices)
@@ -115,38 +114,19 @@ class BatchedTracker:
         ``which`` ``(E,)`` the environments, ``times_s``, ``scan_indices`` their next scan. Returns the scored tracks'
         combined x ``(n, 6)``, P ``(n, 6, 6)`` concatenated, and each environment's count ``(E,)`` (0: no track).
         """
-        counts = np.zeros(which.size, np.int64)
-        parts: list[tuple[FloatArray, ...]] = []
-        groups: dict[tuple[float, bytes], list[int]] = {}
-        for j, e in enumerate(which.tolist()):
-            tr = self.trackers[e]
-            t = tr.tracks
-            if not len(t):
-                continue
-            keep = t.confirmed if t.confirmed.any() else ~t.confirmed
-            mu, active, x, P = t.mu[keep], t.active[keep], t.x[keep], t.P[keep]  # copies
-            counts[j] = mu.shape[0]
-            k = int(scan_indices[j])
-            mask = tr._active_mask(k)
-            if tr._time is not None and (active != mask).any():  # VS-IMM set switch: the tracker's own rule
-                mu, _, x, P = tr._predict_models(mu, active, x, P, float(times_s[j]) - tr._time, k)
-            elif tr._time is not None:
-                dt = float(times_s[j]) - tr._time
-                groups.setdefault((round(dt, 12), mask.tobytes()), []).append(len(parts))
-                parts.append((mu, x, P, dt, mask, tr))
-                continue
-            parts.append((mu, x, P, 0.0, mask, None))
-        if not parts:
-            return np.zeros((0, 6)), np.zeros((0, 6, 6)), counts
-        mu, x, P = (np.concatenate([q[i] for q in parts]) for i in range(3))
-        start = _starts([q[0].shape[0] for q in parts])
-        for members in groups.values():
-            _, _, _, dt, mask, tr = parts[members[0]]
-            Pi, F, Q = tr._restricted_matrices(dt, mask)
-            rows = np.concatenate([np.arange(start[i], start[i + 1]) for i in members])
-            mu_g, x_g, P_g = mu[rows], x[rows], P[rows]  # copies, predicted in place
-            compiled.predict_models(mu_g, Pi, x_g, P_g, F, Q, tr._active_index(mask))
-            mu[rows], x[rows], P[rows] = mu_g, x_g, P_g
+        trs = [self.trackers[e] for e in which.tolist()]
+        tracks = [tr.tracks for tr in trs]
+        sizes = np.array([len(t) for t in tracks], np.int64)
+        if not sizes.any():
+            return np.zeros((0, 6)), np.zeros((0, 6, 6)), np.zeros(which.size, np.int64)
+        confirmed = np.concatenate([t.confirmed for t in tracks])
+        owner = np.repeat(np.arange(which.size), sizes)
+        any_confirmed = np.zeros(which.size, bool)
+        any_confirmed[owner[confirmed]] = True
+        keep = np.where(any_confirmed[owner], confirmed, ~confirmed)  # the confirmed ones, else every one
+        mu, active, x, P = (np.concatenate([getattr(t, f) for t in tracks])[keep] for f in ("mu", "active", "x", "P"))
+        counts = np.bincount(owner[keep], minlength=which.size)
+        self._predict_models(trs, _starts(counts), mu, active, x, P, times_s, scan_indices)
         xc, Pc = compiled.combine(mu, x, P)
         return xc, Pc, counts
 
@@ -217,35 +197,65 @@ class BatchedTracker:
             s = slice(rest_start[i], rest_start[i + 1])
             tr._previous = _Candidates(rest_p[s], rest_cov[s], float(times_s[j]))
 
-    def _predict(self, trs: list[Tracker], times_s: FloatArray, scan_indices: IntArray) -> None:
-        """Stage 1: IMM mixing and prediction of every tracker that has tracks, grouped by (period, model set)."""
-        groups: dict[tuple[float, bytes], list[tuple[Tracker, float]]] = {}
-        for j, tr in enumerate(trs):
-            t_now = float(times_s[j])
-            if tr._time is not None and len(tr.tracks):
-                dt = t_now - tr._time
-                mask = tr._active_mask(int(scan_indices[j]))
-                if (tr.tracks.active != mask).any():  # VS-IMM set switch: the tracker's own rule (rare)
-                    tr._predict(dt, int(scan_indices[j]))
-                else:
-                    groups.setdefault((round(dt, 12), mask.tobytes()), []).append((tr, dt))
+    def _predict(
+        self, trs: list[Tracker], start: IntArray, f: dict[str, np.ndarray], times_s: FloatArray, scan_indices: IntArray
+    ) -> None:
+        """Stage 1: IMM mixing and prediction (in place in ``f``), existence and age, of every tracker with tracks."""
+        had = [tr._time is not None for tr in trs]
+        self._predict_models(trs, start, f["mu"], f["active"], f["x"], f["P"], times_s, scan_indices)
+        for tr, t_now in zip(trs, times_s.tolist(), strict=True):
             tr._time = t_now
-            tr._pd_cache = {}
-        ps = self.cfg.survival_probability
-        for members in groups.values():
-            tr0, dt0 = members[0]
-            mask = tr0.tracks.active[0]
+        rows = np.repeat(np.array(had, bool), np.diff(start))  # every track's tracker had a clock: all of them
+        f["existence"][rows] = predict_existence(f["existence"][rows], self.cfg.survival_probability)
+        f["age"][rows] += 1
+
+    def _predict_models(
+        self,
+        trs: list[Tracker],
+        start: IntArray,
+        mu: FloatArray,
+        active: np.ndarray,
+        x: FloatArray,
+        P: FloatArray,
+        times_s: FloatArray,
+        scan_indices: IntArray,
+    ) -> None:
+        """``Tracker._predict_models`` of the rows ``start[j]:start[j + 1]`` of tracker j, to ``times_s[j]``, in place.
+
+        Trackers without a clock (nothing to predict from) are skipped; one whose model set switches at its scan
+        (VS-IMM, rare) predicts on its own with the switch rule; the rest in one compiled call per (period, set).
+        """
+        owner = np.repeat(np.arange(len(trs)), np.diff(start))
+        groups: dict[tuple[float, bytes], list[int]] = {}
+        for k in np.unique(scan_indices).tolist():  # in lockstep: one scan index
+            mask = trs[0]._active_mask(k)  # one configuration: the same model set at a scan
+            at_k = scan_indices == k
+            switching = np.zeros(len(trs), bool)
+            switching[owner[(active != mask).any(axis=1) & at_k[owner]]] = True
+            for j in np.flatnonzero(at_k).tolist():
+                tr = trs[j]
+                if tr._time is None or start[j + 1] == start[j]:
+                    continue
+                dt = float(times_s[j]) - tr._time
+                if switching[j]:
+                    s = slice(start[j], start[j + 1])
+                    mu[s], active[s], x[s], P[s] = tr._predict_models(
+                        mu[s].copy(), active[s].copy(), x[s].copy(), P[s].copy(), dt, k
+                    )
+                else:
+                    groups.setdefault((round(dt, 12), mask.tobytes()), []).append(j)
+        for (_, key), members in groups.items():
+            tr0 = trs[members[0]]
+            mask = np.frombuffer(key, dtype=bool)
+            Pi, F, Q = tr0._restricted_matrices(float(times_s[members[0]]) - tr0._time, mask)
             a = tr0._active_index(mask)
-            Pi, F, Q = tr0._restricted_matrices(dt0, mask)  # a function of the rounded period (Tracker)
-            ts = [tr.tracks for tr, _ in members]
-            start = _starts([len(t) for t in ts])
-            mu, x, P = (np.concatenate([getattr(t, f) for t in ts]) for f in ("mu", "x", "P"))
-            compiled.predict_models(mu, Pi, x, P, F, Q, a)
-            for e, t in enumerate(ts):
-                s = slice(start[e], start[e + 1])
-                t.mu, t.x, t.P = mu[s], x[s], P[s]
-                t.existence = predict_existence(t.existence, ps)
-                t.age = t.age + 1
+            rows = np.concatenate([np.arange(start[j], start[j + 1]) for j in members])
+            if rows.size == mu.shape[0]:  # every row (lockstep): in place
+                compiled.predict_models(mu, Pi, x, P, F, Q, a)
+            else:
+                mu_g, x_g, P_g = mu[rows], x[rows], P[rows]  # copies, predicted in place
+                compiled.predict_models(mu_g, Pi, x_g, P_g, F, Q, a)
+                mu[rows], x[rows], P[rows] = mu_g, x_g, P_g
 
     def _confirm_and_prune(self, trs: list[Tracker]) -> None:
         """Stage 5: confirmation and deletion (``tracker.confirm_and_keep``) over every environment's tracks at once."""
@@ -263,13 +273,16 @@ class BatchedTracker:
                 tr.tracks = t.select(keep[s])
 
     @staticmethod
-    def _gather(trs: list[Tracker], tracks: list[TrackSet], start: IntArray) -> dict[str, np.ndarray]:
-        """The tracks of every environment concatenated; each tracker's arrays become views into them."""
-        fields = {f: np.concatenate([getattr(t, f) for t in tracks]) for f in ("mu", "active", "x", "P", "existence")}
-        for e, t in enumerate(tracks):
+    def _gather(trs: list[Tracker]) -> tuple[IntArray, dict[str, np.ndarray]]:
+        """Every tracker's tracks concatenated (row offsets, fields); each tracker's tracks become views into them."""
+        tracks = [tr.tracks for tr in trs]
+        start = _starts([len(t) for t in tracks])
+        fields = {f: np.concatenate([getattr(t, f) for t in tracks]) for f in _FIELDS}
+        for e, tr in enumerate(trs):
             s = slice(start[e], start[e + 1])
-            t.mu, t.active, t.x, t.P = fields["mu"][s], fields["active"][s], fields["x"][s], fields["P"][s]
-        return fields
+            tr.tracks = TrackSet(*(fields[f][s] for f in _FIELDS))
+            tr._pd_cache = {}
+        return start, fields
 
     def _detection_probabilities(
         self,
@@ -366,9 +379,7 @@ class BatchedTracker:
             for e, d in members:
                 j = row.get(e)
                 unused[e].append((d, np.ones(len(d), bool) if j is None else free[det_start[j] : det_start[j + 1]]))
-        for e, tr in enumerate(trs):
-            tr.tracks.existence = fields["existence"][start[e] : start[e + 1]].copy()
-        return unused
+        return unused  # the trackers' existence arrays are views of fields["existence"], updated in place
 
 
 # ------------------------------------------------------------------------------------------------ initiation
