@@ -527,7 +527,10 @@ class ImpulseWaveformConfig:
     The pulse spectrum is Gaussian around ``center_freq_hz`` with -10 dB width ``bandwidth_hz`` (the
     high-order limit of a Gaussian-derivative pulse); ``n_pulses`` (Ns) pulses at ``prf_hz`` are integrated per
     scan. ``toa_error_model``: ``crlb`` (ToA variance 1 / (8 pi^2 beta^2 SNR)) or ``energy_detector`` (seed 002's
-    three-region sigma(SNR), eq. 9 and its Table).
+    three-region sigma(SNR), eq. 9 and its Table). ``detection_gain_db``: this waveform's part of the parametric
+    detector's SNR gain (Pd only), added to ``SensingConfig.detection_gain_db``: an energy detector accumulates its
+    ``n_pulses`` pulses non-coherently, a loss against the coherent square-law test that depends on the pulses
+    (calibrated by ``scripts/calibrate_parametric.py --gain-per-waveform``); in [-30, 10] dB, 0 by default.
     """
 
     kind: ClassVar[str] = "impulse"
@@ -538,9 +541,11 @@ class ImpulseWaveformConfig:
     prf_hz: float = 5e6
     toa_error_model: Literal["crlb", "energy_detector"] = "crlb"
     energy_detector: EnergyDetectorToaConfig = field(default_factory=EnergyDetectorToaConfig)
+    detection_gain_db: float = 0.0
 
     def __post_init__(self) -> None:
         _name("ImpulseWaveformConfig", self.name)
+        _in_range("ImpulseWaveformConfig", "detection_gain_db", self.detection_gain_db, -30.0, 10.0)
         _positive("ImpulseWaveformConfig", "center_freq_hz", self.center_freq_hz)
         _positive("ImpulseWaveformConfig", "bandwidth_hz", self.bandwidth_hz)
         if self.bandwidth_hz >= 2 * self.center_freq_hz:

@@ -19,7 +19,8 @@ energy detector with the waveform's bins and accumulated pulses) and we measure
   value the trackers use on the scenario's walks).
 
 The parametric detector with the clutter residue of ``SensingConfig.clutter_residue_ratio`` (kappa) and
-``clutter_residue_looks`` (m) and the detector gain g (``detection_gain_db``, ``--gain-db``; 0 dB unless given),
+``clutter_residue_looks`` (m) and the detector gain g (``detection_gain_db``, ``--gain-db``; 0 dB unless given; one
+per waveform with ``--gain-per-waveform``, ``ImpulseWaveformConfig.detection_gain_db``),
 Pd = E_X[Pd_SW(g SNR / (1 + kappa SNR_dp X), Pfa)], X ~ Gamma(m, 1/m), SW the echo's Swerling case (0 for the point,
 the target's for the person), is fitted to these points: kappa, m, g and the detector's effective Pfa minimise the
 largest Pd difference over every waveform and SNR (pairs pooled, the model averaged over them; grid search, the
@@ -166,6 +167,12 @@ def main() -> None:
         default=[0.0],
         help="detection gains tried (sensing.detection_gain_db: the chain's SNR gain or loss over the square-law test)",
     )
+    ap.add_argument(
+        "--gain-per-waveform",
+        action="store_true",
+        help="fit one gain of --gain-db per waveform (ImpulseWaveformConfig.detection_gain_db: an energy detector's "
+        "non-coherent accumulation loss depends on the pulses)",
+    )
     ap.add_argument("--speed", type=float, default=1.5, help="an extended person's walking speed [m/s]")
     ap.add_argument(
         "--looks",
@@ -216,26 +223,39 @@ def main() -> None:
     measured = np.array([c["pd"] for c in cells.values()])
     dp_all = sensor.dp_snr[w_idx]  # (C, P)
 
-    def worst(log_kappa: float, pfa_fit: float, quad, gain: float = 1.0) -> float:
-        """Largest |Pd difference| over the cells, pairs pooled (the model averaged over the pairs)."""
-        model = parametric_pd(gain * snr_all, dp_all, 10.0**log_kappa, pfa_fit, quad, swerling).mean(axis=-1)
-        return float(np.max(np.abs(model - measured)))
+    gain_grid = np.asarray(args.gain_db, dtype=float)
+    on_w = np.arange(W)[:, None] == w_idx[None]  # (W, C)
 
-    # grid search (the objective is a max, not smooth): kappa, residue looks and the detector's effective Pfa
+    def worst(log_kappa: float, pfa_fit: float, quad) -> tuple[float, np.ndarray]:
+        """Largest |Pd difference| over the cells (pairs pooled, the model averaged over them) and the gains [dB].
+
+        The gains (W,): the best one of ``--gain-db``, or each waveform's best with ``--gain-per-waveform`` (a gain
+        acts on its own waveform's cells, so the largest difference is the largest of the waveforms' own).
+        """
+        g = 10.0 ** (gain_grid / 10.0)
+        model = parametric_pd(g[:, None] * snr_all[None], dp_all[None], 10.0**log_kappa, pfa_fit, quad, swerling).mean(
+            axis=-1
+        )  # (G, C)
+        err = np.max(np.where(on_w[None], np.abs(model - measured)[:, None], 0.0), axis=-1)  # (G, W)
+        if args.gain_per_waveform:
+            best = np.argmin(err, axis=0)
+            return float(err[best, np.arange(W)].max()), gain_grid[best]
+        best = int(np.argmin(err.max(axis=1)))
+        return float(err[best].max()), np.full(W, gain_grid[best])
+
+    # grid search (the objective is a max, not smooth): kappa, residue looks, the detector's effective Pfa and gain
     quads = {m: residue_quadrature(m) for m in args.looks}
-    gains = {g: 10.0 ** (g / 10.0) for g in args.gain_db}
     candidates = [
-        (worst(lk, 10.0**lp, quads[m], gains[g]), lk, 10.0**lp, m, g)
-        for g in args.gain_db
+        (*worst(lk, 10.0**lp, quads[m]), lk, 10.0**lp, m)
         for m in args.looks
         for lp in np.arange(args.log_pfa[0], args.log_pfa[1] + 0.01, args.log_pfa_step)
         for lk in np.arange(args.log_kappa[0], args.log_kappa[1], 0.05)
     ]
-    _, lk0, pfa, looks, gain_db = min(candidates)
-    fine = [(worst(lk, pfa, quads[looks], gains[gain_db]), lk) for lk in np.arange(lk0 - 0.05, lk0 + 0.05, 0.002)]
-    max_pooled, log_kappa = min(fine)
+    _, _, lk0, pfa, looks = min(candidates, key=lambda c: (c[0], c[2], c[3], c[4]))
+    fine = [(*worst(lk, pfa, quads[looks]), lk) for lk in np.arange(lk0 - 0.05, lk0 + 0.05, 0.002)]
+    max_pooled, gain_db_w, log_kappa = min(fine, key=lambda c: (c[0], c[2]))
     kappa = 10.0**log_kappa
-    gain = gains[gain_db]
+    gain_w = 10.0 ** (gain_db_w / 10.0)
     quad = quads[looks]
     rows = []
     for w in range(W):
@@ -243,7 +263,7 @@ def main() -> None:
         for s in grid:
             c = cells[(w, s)]
             model = float(
-                np.mean(parametric_pd(gain * 10.0 ** (s / 10.0), sensor.dp_snr[w], kappa, pfa, quad, swerling))
+                np.mean(parametric_pd(gain_w[w] * 10.0 ** (s / 10.0), sensor.dp_snr[w], kappa, pfa, quad, swerling))
             )
             crlb = SPEED_OF_LIGHT_MPS * math.sqrt(toa_crlb_variance(beta, 10.0 ** (s / 10.0)))
             ratio = c["toa_std_m"] / crlb if c["pd"] > 0.5 else math.nan
@@ -268,9 +288,17 @@ def main() -> None:
         f"Command: `python scripts/calibrate_parametric.py {' '.join(sys.argv[1:])}`",
         "",
         f"* fitted: clutter residue ratio kappa = {kappa:.4g} (log10 {log_kappa:.3f}), residue looks {looks:g}, "
-        f"detector Pfa {pfa:.3g}, detection gain {gain_db:g} dB (the scenario's: kappa "
+        f"detector Pfa {pfa:.3g}, detection gain "
+        + (
+            ", ".join(f"{sensor.library.waveforms[w].name} {g:g} dB" for w, g in enumerate(gain_db_w))
+            if args.gain_per_waveform
+            else f"{gain_db_w[0]:g} dB"
+        )
+        + " (the scenario's: kappa "
         f"{base.sensing.clutter_residue_ratio:g}, looks {base.sensing.clutter_residue_looks:g}, Pfa "
-        f"{base.sensing.false_alarm_probability:g}, gain {base.sensing.detection_gain_db:g} dB)",
+        f"{base.sensing.false_alarm_probability:g}, gain {base.sensing.detection_gain_db:g} dB, waveforms' gains "
+        + ", ".join(f"{w.name} {getattr(w, 'detection_gain_db', 0.0):g} dB" for w in base.waveforms)
+        + ")",
         f"* largest |Pd difference| over the grid (pairs pooled): {max_pooled:.4f} (binomial std of a point at "
         f"Pd 0.5: {0.5 / math.sqrt(args.scans):.3f})",
         "* hits within the gate on echo-free scans (false detections there), removed from the Pd as independent "
@@ -312,7 +340,12 @@ def main() -> None:
         meas = [cells[(w, s)]["pd"] for s in grid]
         (line,) = ax.plot(grid, meas, "o", ms=4, label=f"{name} signal")
         model = parametric_pd(
-            gain * 10.0 ** (fine / 10.0), np.broadcast_to(sensor.dp_snr[w], (fine.size, P)), kappa, pfa, quad, swerling
+            gain_w[w] * 10.0 ** (fine / 10.0),
+            np.broadcast_to(sensor.dp_snr[w], (fine.size, P)),
+            kappa,
+            pfa,
+            quad,
+            swerling,
         )
         model = model.mean(axis=-1)
         ax.plot(fine, model, "-", color=line.get_color(), lw=1, label=f"{name} parametric")

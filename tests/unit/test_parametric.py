@@ -417,3 +417,40 @@ def test_folded_uniform_density_is_the_histogram_of_folded_uniform_draws(period)
     np.testing.assert_allclose(hist[inner], dens[inner], rtol=0.03)  # ~1 % sampling error per bin
     f = np.linspace(-period / 2, period / 2, 200_001)[:-1]
     assert np.mean(folded_uniform_density(f, period, 30.0)) * period == pytest.approx(1.0, abs=1e-4)  # a density
+
+
+def test_a_waveforms_own_detection_gain_scales_its_pd_only():
+    """ImpulseWaveformConfig.detection_gain_db (issue 18: an energy detector's accumulation loss per N_pulse): the
+    detector of that waveform sees g_w x SNR, added to SensingConfig.detection_gain_db; the SNR itself (and so the
+    measurement covariance) is unchanged; the compiled mean link agrees with the numpy reference."""
+    import dataclasses
+
+    from uwb_env.config import ImpulseWaveformConfig
+
+    with pytest.raises(ValueError, match="detection_gain_db"):
+        ImpulseWaveformConfig("w", 4e9, 1e9, detection_gain_db=-31.0)
+    base = scenarios.get("indoor-monostatic")
+    flat = dataclasses.replace(
+        base,
+        waveforms=tuple(dataclasses.replace(w, detection_gain_db=0.0) for w in base.waveforms),
+        sensing=dataclasses.replace(base.sensing, detection_gain_db=0.0),
+    )
+    gains_db = (-3.0, 0.0, -7.5)
+    gained = dataclasses.replace(
+        flat,
+        waveforms=tuple(
+            dataclasses.replace(w, detection_gain_db=g) for w, g in zip(flat.waveforms, gains_db, strict=True)
+        ),
+        sensing=dataclasses.replace(flat.sensing, detection_gain_db=1.0),
+    )
+    a, b = ParametricSensor(flat), ParametricSensor(gained)
+    ratio = b.detection_gain / a.detection_gain
+    for w, g in enumerate(gains_db):
+        np.testing.assert_allclose(ratio[w], 10.0 ** ((g + 1.0) / 10.0), rtol=1e-12)
+    pos = np.array([[3.0, 3.0], [5.0, 2.0]])
+    _, ok, snr_a, pd_a = a._mean_link_reference(0, 0, pos, np.arange(3), 1.0, 3)
+    _, _, snr_b, pd_b = b._mean_link_reference(0, 0, pos, np.arange(3), 1.0, 3)
+    assert ok.all()
+    np.testing.assert_array_equal(snr_b, snr_a)  # the SNR (and so R) is the echo's; the gain acts in Pd only
+    assert np.all(pd_b[[0, 2]] < pd_a[[0, 2]]) and np.all(pd_b[1] > pd_a[1])  # -2 / -6.5 dB and +1 dB
+    np.testing.assert_allclose(b._mean_link(0, 0, pos, np.arange(3), 1.0, 3)[3], pd_b, rtol=1e-9, atol=1e-12)

@@ -255,9 +255,14 @@ class ParametricSensor:
         kappa, looks = cfg.sensing.clutter_residue_ratio, cfg.sensing.clutter_residue_looks
         self._residue = kappa > 0.0
         self._residue_nodes, self._residue_weights = residue_quadrature(looks)
-        # The detector's SNR gain over the single-cell square-law test (SensingConfig.detection_gain_db), for Pd only.
-        self._pd_gain = 10.0 ** (cfg.sensing.detection_gain_db / 10.0)
-        self.detection_gain = self._pd_gain / (1.0 + kappa * self.direct_path_snr[..., None] * self._residue_nodes)
+        # The detector's SNR gain over the single-cell square-law test (SensingConfig.detection_gain_db plus each
+        # impulse waveform's own, ImpulseWaveformConfig.detection_gain_db), for Pd only: (W,).
+        gain_db = [cfg.sensing.detection_gain_db + getattr(w, "detection_gain_db", 0.0) for w in cfg.waveforms]
+        self._pd_gain = 10.0 ** (np.array(gain_db, dtype=float) / 10.0)
+        self._any_pd_gain = bool(np.any(self._pd_gain != 1.0))
+        self.detection_gain = self._pd_gain[:, None, None, None] / (
+            1.0 + kappa * self.direct_path_snr[..., None] * self._residue_nodes
+        )
         self.pairs = np.array(cfg.radar_pairs, dtype=np.int64).reshape(-1, 2)  # (P, 2) formed (tx, rx)
         self.pair_mask = np.zeros((self.n_tx, self.n_rx), dtype=bool)
         self.pair_mask[self.pairs[:, 0], self.pairs[:, 1]] = True
@@ -305,7 +310,7 @@ class ParametricSensor:
         self._unit_cov_stack = np.stack(self._unit_cov) if self._all_unit_chol else None
         self._wavelengths = np.array([w.wavelength_m for w in self.library.waveforms])
         self.range_rate_period = self.library.range_rate_periods  # (W,) lambda / T1 of chirp trains; inf: unambiguous
-        self._unit_gain = np.full((len(self.library), 1), self._pd_gain)  # no clutter residue: one node
+        self._unit_gain = self._pd_gain[:, None].copy()  # no clutter residue: one node
         self._unit_weight = np.ones(1)
         self._link_cache: dict[tuple[int, ...], tuple] = {}  # mean_link's arguments per (tx, rx, waveforms...)
         self._notch = self._static_clutter_tables()
@@ -709,8 +714,8 @@ class ParametricSensor:
             scnr = snr_all * gain[..., None]
         else:
             scnr = snr_all
-        if self._pd_gain != 1.0:
-            scnr = scnr * self._pd_gain
+        if self._any_pd_gain:
+            scnr = scnr * self._pd_gain[:, None, None, None, None]
         if self._notch is not None:  # static clutter at the blind speeds of each waveform's PRI
             gain = self.notch_gain(
                 np.arange(W)[:, None, None, None, None],
@@ -1132,7 +1137,7 @@ class ParametricSensor:
             scnr = snr[..., None] * self.detection_gain[waveforms, tx, rx][:, None, :]  # (W, N, J)
             pd = detection_probability(scnr.reshape(-1), pfa, swerling).reshape(scnr.shape) @ self._residue_weights
         else:
-            pd = detection_probability(snr * self._pd_gain, pfa, swerling)
+            pd = detection_probability(snr * self._pd_gain[waveforms][:, None], pfa, swerling)
         pd = np.where(ok, pd, 0.0)
         return az[0], ok, snr, pd
 
