@@ -96,6 +96,11 @@ def test_every_batched_id_equal_to_sync(env_id: str) -> None:
     _play(env_id, AutoresetMode.NEXT_STEP, 8, {"include_lookahead": True}, {5: [0]})
 
 
+def test_equal_with_azimuth_measurements() -> None:
+    """Receivers that measure azimuth: initiation takes the trackers' own path (``BatchedTracker._initiate``)."""
+    _play("uwb_env/UrbanWaveform-v2", AutoresetMode.NEXT_STEP, 4, {"sensing.measure_doa": True}, {})
+
+
 def test_lookahead_costs_and_masks_are_the_single_envs() -> None:
     """``lookahead_costs()`` ``(N, A)`` row e is env e's own ``lookahead_costs()``; ``action_masks()`` stacks."""
     kw = {"out_of_service_rx": (1,), "action_kind": "subset", "scenario": "indoor-rsn"}
