@@ -968,6 +968,12 @@ class SensingConfig:
     azimuth variances at the same SNR (``uwb_env.sensing.parametric.accuracy_snr_caps``). Without it a valid strong
     transmitter gives variances the tracker's covariance update cannot hold positive definite. In [1e-5, 1] m: below
     10 um the update of a track at the deletion limit (P ~ (50 m)^2) meets float64 rounding.
+
+    ``compensate_walls`` (parametric path): the radar knows the walls (positions and excess delays) and removes
+    their delay from every target detection's bistatic range, the delay of the walls crossed by the straight legs to
+    the detection's own uncompensated position estimate (``ParametricSensor._wall_compensation``): the parametric
+    counterpart of the signal path's ``SignalConfig.wall_compensation`` (seed 001's wall-effect compensation).
+    Off (the default), a detection keeps the walls' excess delay as a positive range bias.
     """
 
     fidelity: Literal["parametric", "signal"] = "parametric"
@@ -984,6 +990,7 @@ class SensingConfig:
     ghost_range_offset_m: float = 20.0
     ghost_range_rate_std_mps: float = 2.5
     min_range_std_m: float = 5e-5
+    compensate_walls: bool = False
     clutter: ClutterConfig = field(default_factory=ClutterConfig)
     signal: SignalConfig = field(default_factory=SignalConfig)
 
@@ -1004,6 +1011,7 @@ class SensingConfig:
         # under 10 %: use 0 (a constant residue)
         _in_range("SensingConfig", "clutter_residue_looks", self.clutter_residue_looks, 0.0, 100.0)
         _bool("SensingConfig", "measure_doa", self.measure_doa)
+        _bool("SensingConfig", "compensate_walls", self.compensate_walls)
         _instance("SensingConfig", "clutter", self.clutter, ClutterConfig, "a ClutterConfig")
         _instance("SensingConfig", "signal", self.signal, SignalConfig, "a SignalConfig")
 

@@ -12,7 +12,8 @@ For every transmitter-receiver pair and target in a scan:
    by ``scripts/calibrate_chirp.py``; 0 dB by default);
 4. a detected target is measured as h(x) + v, v ~ N(0, R(SNR)), R the waveform's CRLB at the scan's true SNR
    (bistatic range; range-rate for chirps; azimuth from the ULA CRLB for array receivers when enabled); walls add
-   the excess delay of seed 002 as a positive range bias;
+   the excess delay of seed 002 as a positive range bias, which a radar that knows its walls removes
+   (``SensingConfig.compensate_walls``, :meth:`ParametricSensor._wall_compensation`);
 5. false detections: a spatial Poisson process of ``clutter.density_per_m2`` over the surveillance area, part of it
    around the clutter scatterers, drawn independently per pair and thinned to the pair's coverage. Their apparent
    SNR is that of noise over the threshold (V_T + Exp(1) - 1), their true range-rate is uniform in
@@ -60,6 +61,7 @@ from uwb_env.channel.walls import pair_obstruction
 from uwb_env.config import ReceiverConfig, ScenarioConfig, TransmitterConfig
 from uwb_env.constants import SPEED_OF_LIGHT_MPS
 from uwb_env.rng import RngStreams
+from uwb_env.scene.geometry import segments_cross
 from uwb_env.scene.layout import SceneLayout
 from uwb_env.scene.truth import Truth
 from uwb_env.sensing.beams import beam_gain, beam_sines
@@ -300,6 +302,7 @@ class ParametricSensor:
         self._unit_cov = [w.unit_covariance for w in self.library.waveforms]
         self._snr_cap = accuracy_snr_caps(self._unit_cov, cfg.sensing.min_range_std_m)
         self._geometry_cache: tuple[FloatArray, BoolArray, EpisodeGeometry] | None = None
+        self._compensate_walls = bool(cfg.sensing.compensate_walls) and lay.wall_start.shape[0] > 0
         self._valid_plans: dict[int, tuple[ScanPlan, tuple[bool, int, bool, list[int]]]] = {}
         self._bx, self._by = np.cos(self._boresight), np.sin(self._boresight)
         self._rx_x, self._rx_y = lay.rx_pos[:, 0].copy(), lay.rx_pos[:, 1].copy()
@@ -671,6 +674,10 @@ class ParametricSensor:
         template[..., col["origin"]] = np.arange(K)
         e_t = np.moveaxis(noise[:, 3:], 1, -1).reshape(-1, m)
         az_t = np.broadcast_to(geom.azimuth[:, None], (S, T, R, K)).reshape(-1)
+        pos_t = None  # the targets' true positions per row: only the wall compensation uses them
+        if self._compensate_walls:
+            pos_t = np.broadcast_to(np.nan_to_num(truth.states[:, None, None, :, :][..., [0, 2]]), (S, T, R, K, 2))
+            pos_t = pos_t.reshape(-1, 2)
         n_az_t = noise[:, 2].reshape(-1)
 
         # False alarms of every scan and pair, gated, with their own measurement and azimuth noise.
@@ -737,7 +744,15 @@ class ParametricSensor:
             rows[:, col["snr"]] = snr_all.reshape(-1)
             tile = lambda a: np.tile(a, (W, 1)) if a.ndim == 2 else np.tile(a, W)  # noqa: E731
             self._measure(
-                rows, tile(e_t), tile(az_t), tile(n_az_t), tile(t_t), tile(r_t), np.repeat(np.arange(W), n_t), m
+                rows,
+                tile(e_t),
+                tile(az_t),
+                tile(n_az_t),
+                tile(t_t),
+                tile(r_t),
+                np.repeat(np.arange(W), n_t),
+                m,
+                target_pos=None if pos_t is None else tile(pos_t),
             )
             target_rows = rows.reshape(W, *template.shape)
         else:
@@ -745,7 +760,7 @@ class ParametricSensor:
             for w in range(W):  # the waveform library: a small fixed set
                 rows = template.reshape(-1, col["n"]).copy()
                 rows[:, col["snr"]] = snr_all[w].reshape(-1)
-                self._measure(rows, e_t, az_t, n_az_t, t_t, r_t, w, m)
+                self._measure(rows, e_t, az_t, n_az_t, t_t, r_t, w, m, target_pos=pos_t)
                 target_rows[w] = rows.reshape(template.shape)
         c_scan = scan[idx]
         if sens.ghost_rate > 0.0:  # multipath ghosts of covered targets, merged into the false alarms by (scan, pair)
@@ -814,6 +829,7 @@ class ParametricSensor:
         m: int,
         azimuth_cache: dict[float, tuple[FloatArray, FloatArray]] | None = None,
         inv_sqrt_snr: FloatArray | None = None,
+        target_pos: FloatArray | None = None,
     ) -> None:
         """Measure noise-free rows through waveform ``w`` (in place).
 
@@ -821,7 +837,9 @@ class ParametricSensor:
         ``e`` (n, m) and ``n_az`` (n,) are standard normals. ``w`` is one waveform, or ``(n,)`` waveform indices
         when every waveform's R scales as 1 / SNR. When the rows' SNR does not depend on the waveform (false
         alarms), ``azimuth_cache`` shares the azimuth columns (and their map bins) between waveforms of the same
-        carrier, and ``inv_sqrt_snr`` (n,) the noise scaling.
+        carrier, and ``inv_sqrt_snr`` (n,) the noise scaling. ``target_pos`` (n, 2): the true positions of target
+        rows, given when the radar compensates its walls (``SensingConfig.compensate_walls``): the measured range
+        less :meth:`_wall_compensation` before the clutter intensity is read at it.
         """
         col = _columns(m)
         snr = rows[:, col["snr"]]
@@ -867,6 +885,8 @@ class ParametricSensor:
             rows[:, col["walk_r"]], rows[:, col["walk_d"]] = f[:, 0], f[:, 1]
             ridge = ridge * np.sqrt(f[:, 0] / f[:, 1])
             rdot_var = rdot_var * f[:, 1]
+        if target_pos is not None:  # the radar removes the known walls' delay (SensingConfig.compensate_walls)
+            rows[:, 1] -= self._wall_compensation(rows[:, 1], tx, rx, target_pos)
         period = self.range_rate_period[w] if m == 2 else None
         if m == 2:  # the train measures the Doppler modulo 1 / T1: the range-rate is reported folded (chirp.py)
             rows[:, 2] = fold_range_rate(rows[:, 2], period)
@@ -894,6 +914,35 @@ class ParametricSensor:
                 azimuth_cache[key] = entry
             az_bins = entry[2]
         rows[:, col["rho"]] = self._clutter_intensity(rows, ridge, rdot_var, az_bins, period)
+
+    def _wall_compensation(self, z: FloatArray, tx: IntArray, rx: IntArray, pos: FloatArray) -> FloatArray:
+        """The known walls' excess delay c tau [m] on the legs to each detection's uncompensated position estimate.
+
+        Seed 001's wall-effect compensation as the signal path does it (``uwb_env.localization.couples.
+        compensate_walls``: the crossings of the legs to the uncompensated intersection p_0, removed, then
+        intersected again), for a detection that is one bistatic range ``z`` (n,) [m] of pair (``tx``, ``rx``) (n,):
+        its p_0 is the point of its measured ellipse nearest the true position ``pos`` (n, 2) [m], to first order
+        p_0 = p + (z - r(p)) g / |g|^2, g = grad r(p) the free-space range's gradient -- so p_0 carries the range
+        noise and the walls' own delay, as the couple's p_0 does (the couple's cross-range error, which a single
+        range does not have, is left out). The delay is that of the walls the legs Tx -> p_0 and p_0 -> Rx cross
+        (``uwb_env.channel.walls``: a fixed delay per crossing, the layout's walls and delays, known to the radar as
+        in the signal path). It removes the delay exactly when p_0 and p lie on the same side of every wall (seed
+        001: a wall parallel to the array, every person behind it); elsewhere the residual (a crossing counted or
+        missed) stays in the measurement. Why here rather than in the tracker's measurement model: the radar, not
+        the tracker, knows the wall (seed 001 compensates before its localization), and the tracker's free-space
+        bistatic range then holds for both fidelities.
+        """
+        lay = self.layout
+        t_pos, r_pos = lay.tx_pos[tx], lay.rx_pos[rx]
+        dt, dr = pos - t_pos, pos - r_pos
+        lt, lr = np.linalg.norm(dt, axis=1), np.linalg.norm(dr, axis=1)
+        g = dt / np.maximum(lt, 1e-9)[:, None] + dr / np.maximum(lr, 1e-9)[:, None]
+        g2 = np.einsum("nd,nd->n", g, g)
+        step = np.where(g2 > 1e-6, (np.nan_to_num(z) - lt - lr) / np.maximum(g2, 1e-6), 0.0)
+        p0 = pos + step[:, None] * g
+        crossed = segments_cross(t_pos, p0, lay.wall_start, lay.wall_end).astype(float)
+        crossed += segments_cross(r_pos, p0, lay.wall_start, lay.wall_end)
+        return SPEED_OF_LIGHT_MPS * (crossed @ lay.wall_delay_s)
 
     # ----------------------------------------------------------------------------------------------------- scan
     def sense(self, episode: EpisodeSensing, k: int, plan: ScanPlan, time_s: float = 0.0) -> tuple[Detections, ...]:
