@@ -74,11 +74,12 @@ from gymnasium import spaces
 from uwb_env import scenarios
 from uwb_env.config import TRACKER_KINDS, ScenarioConfig, apply_overrides
 from uwb_env.envs.features import track_features
+from uwb_env.envs.outputs import observations, one_env, rewards_and_infos, scan_summaries
 from uwb_env.lookahead import check_q2, detection_probabilities, lookahead_costs, search_information, sequence_costs
-from uwb_env.metrics import cover_summary
 from uwb_env.sensing.protocol import Sensor
 from uwb_env.sensing.records import ScanPlan
 from uwb_env.sim import ScanResult, Simulator
+from uwb_env.tracking.trackset import TrackSet
 from uwb_env.typing import BoolArray, FloatArray
 from uwb_env.units import dbm_to_watts
 
@@ -449,38 +450,26 @@ class UWBSchedulingEnv(gym.Env):
         return a_int
 
     def _reward_and_info(self, res: ScanResult, action: int) -> tuple[float, dict[str, Any]]:
-        t = res.tracks
-        x, P = t.combined()
-        truth = self.sim.truth
-        targets = truth.states[res.scan_index][truth.alive[res.scan_index]][:, 0:3:2]  # (x, y) of the alive ones
-        trace, mu_sum, ti, gi, errors, ospa_m = cover_summary(
-            t.confirmed, x, P, t.mu, np.ascontiguousarray(targets), self.cover_gate_m, self.cover_gate_m * 2, 2.0
+        """The reward and info of the scan ``res`` played with ``action`` (``envs.outputs``, one environment)."""
+        reward, info = rewards_and_infos(
+            self._summaries(res.tracks, res.scan_index),
+            np.array([res.scan_index]),
+            self.plan_energy_j[[action]],
+            self.missed_target_penalty_m2,
+            self.energy_cost_per_j,
         )
-        n_conf = trace.size
-        mean_trace = float(trace.sum()) / n_conf if n_conf else 0.0
-        missed = targets.shape[0] - gi.size
-        energy = float(self.plan_energy_j[action])
-        reward = -mean_trace - self.missed_target_penalty_m2 * missed - self.energy_cost_per_j * energy
-        if not math.isfinite(reward):
-            raise FloatingPointError(f"reward is {reward} at scan {res.scan_index}: mean trace {mean_trace}")
-        padded = np.zeros(self._n_targets)
-        padded[: errors.size] = errors
-        info = {
-            "scan_index": int(res.scan_index),
-            "covariance_trace": mean_trace,
-            "target_covariance_trace": float(trace[ti].sum()) / ti.size if ti.size else 0.0,
-            "missed_targets": int(missed),
-            "missed_penalty": self.missed_target_penalty_m2 * missed,
-            "energy_j": energy,
-            "energy_cost": self.energy_cost_per_j * energy,
-            "position_errors_m": padded,
-            "position_errors_count": int(errors.size),
-            "ospa_m": float(ospa_m),
-            "confirmed_tracks": int(n_conf),
-            "false_tracks": int(n_conf - ti.size),
-            "model_probabilities": mu_sum / n_conf if n_conf else mu_sum,
-        }
-        return float(reward), info
+        return float(reward[0]), one_env(info)
+
+    def _summaries(self, tracks: TrackSet, scan_index: int) -> tuple[np.ndarray, ...]:
+        """``envs.outputs.scan_summaries`` of ``tracks`` against the targets alive at ``scan_index``."""
+        x, P = tracks.combined()
+        truth = self.sim.truth
+        targets = truth.states[scan_index][truth.alive[scan_index]][:, 0:3:2]  # (x, y) of the alive ones
+        return scan_summaries(
+            np.array([0, len(tracks)]), tracks.confirmed, tracks.existence, tracks.mu, x, P,
+            np.array([0, targets.shape[0]]), np.ascontiguousarray(targets), self.cover_gate_m, self.cover_gate_m * 2,
+            self._centre, self._half, self._v_max, self.n_slots, self._n_targets,
+        )  # fmt: skip
 
     def _reset_info(self) -> dict[str, Any]:
         """The info of ``reset``: the step's keys and shapes (vector envs stack them), no scan played yet.
@@ -511,27 +500,23 @@ class UWBSchedulingEnv(gym.Env):
         feats = track_features(
             tracks.existence, tracks.confirmed, tracks.mu, x, P, self._centre, self._half, self._v_max, self.n_slots
         )
-        prev = np.zeros(len(self.plans))
-        if self._previous is not None:
-            prev[self._previous] = 1.0
-        parts = {"tracks": feats, "previous_action": prev}
-        if self.include_lookahead and lookahead is not None:
-            parts.update(lookahead)
-        elif self.include_lookahead:
-            parts["lookahead"] = _scaled_cost(self.lookahead_costs())
+        extra = {} if lookahead is None else dict(lookahead)
+        if self.include_lookahead and lookahead is None:
+            extra["lookahead"] = _scaled_cost(self.lookahead_costs())
             if self.receiver_warmup:
-                parts["lookahead_all_ready"] = _scaled_cost(lookahead_costs(*self._next_scan(), q2=self.lookahead_q2))
+                extra["lookahead_all_ready"] = _scaled_cost(lookahead_costs(*self._next_scan(), q2=self.lookahead_q2))
         if self.receiver_warmup:
-            parts["ready_receivers"] = self._ready_rx.astype(float)
-        flat = np.concatenate([v.ravel() for v in parts.values()])
-        if not (np.abs(flat) <= OBS_BOUND).all():  # also catches NaN
-            bad = [name for name, v in parts.items() if not np.all(np.abs(v) <= OBS_BOUND)]
-            raise FloatingPointError(
-                f"observation part(s) {bad} outside [-{OBS_BOUND}, {OBS_BOUND}] or not finite at scan {self.sim.k}"
-            )
-        if self.obs_kind == "dict":
-            return {k: v.astype(np.float32) for k, v in parts.items()}
-        return flat.astype(np.float32)
+            extra["ready_receivers"] = self._ready_rx.astype(float)
+        obs = observations(
+            feats[None],
+            np.array([-1 if self._previous is None else self._previous]),
+            len(self.plans),
+            {k: v[None] for k, v in extra.items()},
+            self.obs_kind,
+            OBS_BOUND,
+            np.array([self.sim.k]),
+        )
+        return {k: v[0] for k, v in obs.items()} if self.obs_kind == "dict" else obs[0]
 
     # ---------------------------------------------------------------------------------------------- rendering
     def render(self) -> np.ndarray | None:

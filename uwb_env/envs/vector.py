@@ -36,11 +36,13 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space, concatenate, create_empty_array
 
-from uwb_env.envs.scheduling import UWBSchedulingEnv, _scaled_cost
+from uwb_env.envs.outputs import observations, one_env, rewards_and_infos, scan_summaries
+from uwb_env.envs.scheduling import OBS_BOUND, UWBSchedulingEnv, _scaled_cost
 from uwb_env.lookahead import expected_posterior, position_trace
 from uwb_env.sensing.records import ScanPlan
 from uwb_env.sim import ScanResult
 from uwb_env.tracking.batch import BatchedTracker
+from uwb_env.tracking.compiled import combine as compiled_combine
 from uwb_env.typing import BoolArray, FloatArray, IntArray
 
 AUTORESET_MODES = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP, AutoresetMode.DISABLED)
@@ -149,23 +151,22 @@ class UWBVectorEnv(VectorEnv):
             )
         stepping = np.flatnonzero(~resetting)
         self._scan(stepping, acts[stepping])
-        env_infos: list[dict[str, Any]] = [{}] * n
-        for e in range(n):
-            env = self.envs[e]
-            if resetting[e]:
-                obs[e], env_infos[e] = env.reset()
-            else:
-                rewards[e], env_infos[e] = env._reward_and_info(env._last, int(acts[e]))
-                truncated[e] = env.sim.done
-                if not env.include_lookahead:
-                    obs[e] = env._observation()
-        if self.envs[0].include_lookahead:
-            self._fill_lookahead_observations(obs, stepping)
+        env_infos: list[dict[str, Any] | None] = [None] * n
+        for e in np.flatnonzero(resetting).tolist():
+            obs[e], env_infos[e] = self.envs[e].reset()
+        info_arrays = None
+        if stepping.size:
+            rewards[stepping], info_arrays, batch_obs = self._outputs(stepping, acts[stepping])
+            truncated[stepping] = [self.envs[e].sim.done for e in stepping.tolist()]
+            for j, e in enumerate(stepping.tolist()):
+                obs[e] = {k: v[j] for k, v in batch_obs.items()} if isinstance(batch_obs, dict) else batch_obs[j]
+        row = {e: j for j, e in enumerate(stepping.tolist())}
         if self.autoreset_mode == AutoresetMode.SAME_STEP:
             for e in np.flatnonzero(truncated | terminated).tolist():
-                infos = self._add_info(infos, {"final_obs": obs[e], "final_info": env_infos[e]}, e)
+                final = one_env(info_arrays, row[e])
+                infos = self._add_info(infos, {"final_obs": obs[e], "final_info": final}, e)
                 obs[e], env_infos[e] = self.envs[e].reset()
-        infos.update(_stacked_infos(env_infos))
+        infos.update(_stacked_infos(env_infos, info_arrays, row))
         self._autoreset = terminated | truncated
         self._store(obs)
         return self._copy(), rewards, terminated, truncated, infos
@@ -271,15 +272,41 @@ class UWBVectorEnv(VectorEnv):
         costs[has] = (np.add.reduceat(traces, start, axis=1) / counts_a[has]).T
         return costs
 
-    def _fill_lookahead_observations(self, obs: list[Any], stepping: IntArray) -> None:
-        """The observations of ``stepping`` with their lookahead part from one batched lookahead."""
-        costs = self._lookahead(stepping)
-        all_ready = self._lookahead(stepping, all_ready=True) if self.envs[0].receiver_warmup else None
-        for j, e in enumerate(stepping.tolist()):
-            extra = {"lookahead": _scaled_cost(costs[j])}
-            if all_ready is not None:
-                extra["lookahead_all_ready"] = _scaled_cost(all_ready[j])
-            obs[e] = self.envs[e]._observation(extra)
+    def _outputs(self, envs: IntArray, actions: IntArray) -> tuple[FloatArray, dict[str, np.ndarray], Any]:
+        """Rewards ``(E,)``, info arrays and observations of the environments ``envs`` after their scan, batched.
+
+        ``envs.outputs`` on every environment's tracks at once (the single env's own functions, so env by env the
+        same numbers); the lookahead parts of the observation from one batched lookahead.
+        """
+        first = self.envs[0]
+        trs = [self.envs[e].sim.tracker.tracks for e in envs.tolist()]
+        sizes = [len(t) for t in trs]
+        confirmed, existence, mu, x, P = (
+            np.concatenate([getattr(t, f) for t in trs]) for f in ("confirmed", "existence", "mu", "x", "P")
+        )
+        xc, Pc = compiled_combine(mu, x, P)
+        ks = np.array([self.envs[e].sim.k for e in envs.tolist()], np.int64)
+        targets = []
+        for e, k in zip(envs.tolist(), ks.tolist(), strict=True):
+            truth = self.envs[e].sim.truth
+            targets.append(truth.states[k][truth.alive[k]][:, 0:3:2])  # (x, y) of the alive ones
+        summ = scan_summaries(
+            _offsets(sizes), confirmed, existence, mu, xc, Pc, _offsets([t.shape[0] for t in targets]),
+            np.ascontiguousarray(np.concatenate(targets)), first.cover_gate_m, first.cover_gate_m * 2,
+            first._centre, first._half, first._v_max, first.n_slots, first._n_targets,
+        )  # fmt: skip
+        rewards, info = rewards_and_infos(
+            summ, ks, first.plan_energy_j[actions], first.missed_target_penalty_m2, first.energy_cost_per_j
+        )
+        extra: dict[str, FloatArray] = {}
+        if first.include_lookahead:
+            extra["lookahead"] = _scaled_cost(self._lookahead(envs))
+            if first.receiver_warmup:
+                extra["lookahead_all_ready"] = _scaled_cost(self._lookahead(envs, all_ready=True))
+        if first.receiver_warmup:
+            extra["ready_receivers"] = np.array([self.envs[e]._ready_rx for e in envs.tolist()], dtype=float)
+        obs = observations(summ[-1], actions, len(self.plans), extra, first.obs_kind, OBS_BOUND, ks)
+        return rewards, info, obs
 
     def _unbatched(self) -> list[Any]:
         """The current observations, one per environment."""
@@ -294,19 +321,36 @@ class UWBVectorEnv(VectorEnv):
         return _deep(self._observations)
 
 
-def _stacked_infos(infos: list[dict[str, Any]]) -> dict[str, Any]:
-    """Every env's info (the same keys, shapes and types: ``UWBSchedulingEnv``) stacked, with all-True ``_key`` masks.
+def _offsets(sizes: list[int]) -> IntArray:
+    """``(E + 1,)`` row offsets of E consecutive blocks of ``sizes`` rows."""
+    out = np.zeros(len(sizes) + 1, np.int64)
+    np.cumsum(sizes, out=out[1:])
+    return out
 
-    What ``VectorEnv._add_info`` builds env by env (its dtypes: a Python scalar's type, an array's dtype), at once.
+
+def _stacked_infos(
+    reset_infos: list[dict[str, Any] | None], arrays: dict[str, np.ndarray] | None, row: dict[int, int]
+) -> dict[str, Any]:
+    """The vector info: env e's entries from ``arrays`` row ``row[e]`` (a scan) or from ``reset_infos[e]`` (a reset).
+
+    The single env's keys, shapes and types (``VectorEnv._add_info``'s dtypes: a Python scalar's type, an array's
+    dtype), with all-True ``_key`` masks.
     """
-    n = len(infos)
+    n = len(reset_infos)
+    some = arrays if arrays is not None else next(i for i in reset_infos if i is not None)
     out: dict[str, Any] = {}
-    for key, value in infos[0].items():
-        values = [info[key] for info in infos]
-        if isinstance(value, np.ndarray):
-            out[key] = np.stack(values).astype(value.dtype, copy=False)
+    for key in some:
+        if arrays is not None:
+            col = arrays[key]
+            full = np.zeros((n, *col.shape[1:]), dtype=col.dtype)
+            full[list(row)] = col[list(row.values())]
         else:
-            out[key] = np.array(values, dtype=type(value))
+            first = reset_infos[0][key]
+            full = np.zeros((n, *np.shape(first)), dtype=first.dtype if isinstance(first, np.ndarray) else type(first))
+        for e, info in enumerate(reset_infos):
+            if info is not None:
+                full[e] = info[key]
+        out[key] = full
         out[f"_{key}"] = np.ones(n, dtype=np.bool_)
     return out
 
