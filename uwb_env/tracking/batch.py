@@ -103,8 +103,8 @@ class BatchedTracker:
         self._predict(trs, start, fields, times_s, scan_indices)
         pd = self._detection_probabilities(trs, fields, start, detections, waveforms, pd_model)
         unused = self._update(trs, fields, start, detections, pd)
-        self._initiate(trs, unused, times_s, scan_indices)
-        self._confirm_and_prune(trs)
+        new = self._initiate(trs, unused, times_s, scan_indices)
+        self._confirm_and_prune(trs, new, scan_indices)
 
     def scored_predictions(
         self, which: IntArray, times_s: FloatArray, scan_indices: IntArray
@@ -137,11 +137,13 @@ class BatchedTracker:
         unused: list[list[tuple[Detections, np.ndarray]]],
         times_s: FloatArray,
         scan_indices: IntArray,
-    ) -> None:
+    ) -> tuple[FloatArray, FloatArray, IntArray]:
         """Stage 4: initiation from the unused detections, one compiled call for the range-only environments.
 
         An environment with a free detection that carries an azimuth or is a fused position initiates on its own
-        (``Tracker._initiate``); the others go through :func:`range_only_initiation` together.
+        (``Tracker._initiate``, which appends its tracks); the others go through :func:`range_only_initiation`
+        together. Returns their new tracks' states ``x (n, 6)``, ``P (n, 6, 6)`` in environment order and how many
+        each environment gets ``(E,)`` (appended by :meth:`_confirm_and_prune`).
         """
         cfg = self.cfg
         batch, groups = [], []
@@ -153,7 +155,7 @@ class BatchedTracker:
                 batch.append(j)
                 groups.append(free)
         if not batch:
-            return
+            return np.zeros((0, 6)), np.zeros((0, 6, 6)), np.zeros(len(trs), np.int64)
         dets = [d for free in groups for d, _ in free]
         tr0 = trs[batch[0]]
         cap = cfg.init_max_candidates
@@ -189,13 +191,11 @@ class BatchedTracker:
             )
         )
         for i, j in enumerate(batch):
-            tr = trs[j]
-            if new_start[i + 1] > new_start[i]:
-                tr._append_tracks(
-                    x[new_start[i] : new_start[i + 1]], P[new_start[i] : new_start[i + 1]], int(scan_indices[j])
-                )
             s = slice(rest_start[i], rest_start[i + 1])
-            tr._previous = _Candidates(rest_p[s], rest_cov[s], float(times_s[j]))
+            trs[j]._previous = _Candidates(rest_p[s], rest_cov[s], float(times_s[j]))
+        counts = np.zeros(len(trs), np.int64)
+        counts[batch] = np.diff(new_start)
+        return x, P, counts
 
     def _predict(
         self, trs: list[Tracker], start: IntArray, f: dict[str, np.ndarray], times_s: FloatArray, scan_indices: IntArray
@@ -249,28 +249,76 @@ class BatchedTracker:
             mask = np.frombuffer(key, dtype=bool)
             Pi, F, Q = tr0._restricted_matrices(float(times_s[members[0]]) - tr0._time, mask)
             a = tr0._active_index(mask)
-            rows = np.concatenate([np.arange(start[j], start[j + 1]) for j in members])
-            if rows.size == mu.shape[0]:  # every row (lockstep): in place
+            if int(np.diff(start)[members].sum()) == mu.shape[0]:  # every row (lockstep): in place
                 compiled.predict_models(mu, Pi, x, P, F, Q, a)
             else:
+                rows = np.concatenate([np.arange(start[j], start[j + 1]) for j in members])
                 mu_g, x_g, P_g = mu[rows], x[rows], P[rows]  # copies, predicted in place
                 compiled.predict_models(mu_g, Pi, x_g, P_g, F, Q, a)
                 mu[rows], x[rows], P[rows] = mu_g, x_g, P_g
 
-    def _confirm_and_prune(self, trs: list[Tracker]) -> None:
-        """Stage 5: confirmation and deletion (``tracker.confirm_and_keep``) over every environment's tracks at once."""
+    def _confirm_and_prune(
+        self, trs: list[Tracker], new: tuple[FloatArray, FloatArray, IntArray], scan_indices: IntArray
+    ) -> None:
+        """Stage 5: the new tentative tracks appended, then confirmation and deletion, over every environment at once.
+
+        The new tracks as ``Tracker._append_tracks`` makes them (fresh ids, existence ``initial_existence``, uniform
+        model probabilities over the scan's set, every model at the initiated state); then ``tracker.confirm_and_keep``
+        on all rows; each tracker's tracks become views of what is kept.
+        """
+        x_new, P_new, counts = new
         tracks = [tr.tracks for tr in trs]
-        start = _starts([len(t) for t in tracks])
-        if start[-1] == 0:
+        old = np.array([len(t) for t in tracks], np.int64)
+        if not (old.sum() + counts.sum()):
             return
-        cat = {f: np.concatenate([getattr(t, f) for t in tracks]) for f in ("existence", "confirmed", "age")}
-        x, P = compiled.combine(*(np.concatenate([getattr(t, f) for t in tracks]) for f in ("mu", "x", "P")))
-        confirmed, keep = confirm_and_keep(self.cfg, trs[0].area, cat["existence"], cat["confirmed"], cat["age"], x, P)
-        for e, (tr, t) in enumerate(zip(trs, tracks, strict=True)):
-            s = slice(start[e], start[e + 1])
-            t.confirmed = confirmed[s]
-            if not keep[s].all():
-                tr.tracks = t.select(keep[s])
+        fresh = self._fresh_tracks(trs, x_new, P_new, counts, scan_indices)
+        new_at = _starts(counts)
+        fields = {}
+        for f in _FIELDS:
+            pieces = []
+            for j, t in enumerate(tracks):
+                pieces.append(getattr(t, f))
+                if counts[j]:
+                    pieces.append(fresh[f][new_at[j] : new_at[j + 1]])
+            fields[f] = np.concatenate(pieces)
+        x, P = compiled.combine(fields["mu"], fields["x"], fields["P"])
+        fields["confirmed"], keep = confirm_and_keep(
+            self.cfg, trs[0].area, fields["existence"], fields["confirmed"], fields["age"], x, P
+        )
+        owner = np.repeat(np.arange(len(trs)), old + counts)
+        if not keep.all():
+            index = np.flatnonzero(keep)
+            fields = {f: v.take(index, axis=0) for f, v in fields.items()}
+            owner = owner[index]
+        start = _starts(np.bincount(owner, minlength=len(trs)))
+        for j, tr in enumerate(trs):
+            s = slice(start[j], start[j + 1])
+            tr.tracks = TrackSet(*(fields[f][s] for f in _FIELDS))
+
+    def _fresh_tracks(
+        self, trs: list[Tracker], x: FloatArray, P: FloatArray, counts: IntArray, scan_indices: IntArray
+    ) -> dict[str, np.ndarray]:
+        """The fields of the new tentative tracks (``Tracker._append_tracks``), ``counts[j]`` for tracker j in order."""
+        n = int(counts.sum())
+        r = len(self.cfg.models)
+        which = np.flatnonzero(counts)
+        first_id = np.array([trs[j]._next_id for j in which.tolist()], np.int64)
+        for j, c in zip(which.tolist(), counts[which].tolist(), strict=True):
+            trs[j]._next_id += c
+        offset = np.arange(n) - np.repeat(_starts(counts[which])[:-1], counts[which])
+        masks = np.array([trs[j]._active_mask(int(scan_indices[j])) for j in which.tolist()]).reshape(-1, r)
+        mask = np.repeat(masks, counts[which], axis=0)
+        return {
+            "ids": np.repeat(first_id, counts[which]) + offset,
+            "confirmed": np.zeros(n, bool),
+            "age": np.zeros(n, np.int64),
+            "born": np.repeat(np.asarray(scan_indices, np.int64)[which], counts[which]),
+            "existence": np.full(n, self.cfg.initial_existence),
+            "mu": mask / mask.sum(axis=1, keepdims=True),
+            "active": mask,
+            "x": np.repeat(x[:, None], r, axis=1),
+            "P": np.repeat(P[:, None], r, axis=1),
+        }
 
     @staticmethod
     def _gather(trs: list[Tracker]) -> tuple[IntArray, dict[str, np.ndarray]]:
