@@ -39,6 +39,7 @@ from gymnasium.vector.utils import batch_space, concatenate, create_empty_array
 from uwb_env.envs.outputs import observations, one_env, rewards_and_infos, scan_summaries
 from uwb_env.envs.scheduling import OBS_BOUND, UWBSchedulingEnv, _scaled_cost
 from uwb_env.lookahead import expected_posterior, position_trace
+from uwb_env.sensing.batch import sense_many
 from uwb_env.sensing.records import ScanPlan
 from uwb_env.sim import ScanResult
 from uwb_env.tracking.batch import BatchedTracker
@@ -217,7 +218,8 @@ class UWBVectorEnv(VectorEnv):
         """Sense and track the next scan of the environments ``envs`` with ``actions`` (``Simulator.step``'s flow)."""
         if envs.size == 0:
             return
-        dets, times, ks = [], np.zeros(envs.size), np.zeros(envs.size, np.int64)
+        times, ks = np.zeros(envs.size), np.zeros(envs.size, np.int64)
+        episodes, sensed_plans, delivers = [], [], []
         for j, (e, a) in enumerate(zip(envs.tolist(), actions.tolist(), strict=True)):
             env = self.envs[e]
             sim = env.sim
@@ -233,10 +235,13 @@ class UWBVectorEnv(VectorEnv):
             delivering = plan.active_rx if ready is None else plan.active_rx & ready
             sensed = ScanPlan(plan.waveform, delivering) if ready is not None and delivering.any() else plan
             sim._plan = sensed
-            d = self.sensor.sense(sim.episode, sim.k, sensed, float(times[j]))
-            dets.append(d if delivering.any() else ())
+            episodes.append(sim.episode)
+            sensed_plans.append(sensed)
+            delivers.append(bool(delivering.any()))
             if env.receiver_warmup:
                 env._ready_rx = plan.active_rx.copy()
+        sensed_dets = sense_many(self.sensor, episodes, ks, sensed_plans, times)  # every formed pair draws: CRN
+        dets = [d if ok else () for d, ok in zip(sensed_dets, delivers, strict=True)]
         self._tracker.step(dets, times, ks, self._waveforms[actions], self._pd, envs)
         for j, (e, a) in enumerate(zip(envs.tolist(), actions.tolist(), strict=True)):
             env = self.envs[e]
