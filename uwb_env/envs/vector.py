@@ -8,16 +8,20 @@ observations, rewards, terminations, truncations and infos (``tests/test_batched
 Gymnasium's ``SyncVectorEnv`` (stacked observations, infos as arrays with ``_key`` masks, ``final_obs`` /
 ``final_info`` in ``SAME_STEP`` mode).
 
-What is batched (one call per scan for all N, not N step calls):
+What is batched (one call per stage and scan for all N, not N step calls):
     * sensing: one sensor shared by the N episodes (its episode draws stay per environment, so common random
-      numbers hold env by env); each scan's detections are a row selection per environment;
-    * tracking: ``uwb_env.tracking.batch.BatchedTracker`` (prediction, the sensor model's Pd and the LMIPDA + PDA
-      updates as compiled calls over every environment's tracks; initiation and track management per environment);
+      numbers hold env by env); the scan's rows of every episode sorted, given covariances and split per pair in
+      one pass (``uwb_env.sensing.batch.sense_many``);
+    * tracking: ``uwb_env.tracking.batch.BatchedTracker``: prediction, the sensor model's Pd, the LMIPDA + PDA
+      updates, range-only initiation, new tracks, confirmation and deletion, each one compiled or vectorised call
+      over every environment's tracks;
     * lookahead (``lookahead_costs()`` ``(N, A)``, also in the observation with ``include_lookahead``): the scored
       tracks of every environment predicted in one compiled call and their expected updates in one
       ``expected_posterior`` over plans x all tracks, averaged per environment;
-    * reward, info and observation: per environment from the same compiled kernels (``metrics.cover_summary``,
-      ``envs.features.track_features``).
+    * reward, info and observation: ``uwb_env.envs.outputs`` over every environment's tracks in one compiled pass
+      (the single env's own functions, with E = 1 there).
+What stays a Python call per environment: choosing its scan's rows, its detections' records, its truth's alive
+targets, its resets.
 
 Scope: the parametric fidelity and the ``imm-lmipda`` tracker (every registered id's defaults); another fidelity or
 tracker raises ``ValueError`` naming the keyword (use ``vectorization_mode="sync"`` for those). ``render`` is not

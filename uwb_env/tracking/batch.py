@@ -2,22 +2,24 @@ r"""N VS-IMM / LMIPDA trackers stepped together: one compiled call per stage ove
 
 A batched vector env (``uwb_env.envs.vector``) holds one ``Tracker`` per environment (each keeps its own tracks,
 candidates, ids and clock) and steps them with :class:`BatchedTracker`. Each stage of ``Tracker.step`` runs once
-for all environments, on their tracks concatenated (environment e owns rows ``start[e]:start[e + 1]``):
+for all environments, on their tracks concatenated (environment e owns rows ``start[e]:start[e + 1]``; after each
+scan every tracker's track set is a view of its block):
 
-1. prediction: ``compiled.predict_models`` over the tracks of every environment that shares a period and a model
-   set (in lockstep: all of them), existence and age vectorised; an environment whose model set switches this scan
-   (VS-IMM, rare) predicts on its own with the tracker's switch rule;
+1. prediction: ``compiled.predict_models`` over the rows of every environment that shares a period and a model set
+   (in lockstep: all of them), existence and age vectorised; an environment whose model set switches this scan
+   (VS-IMM, rare) predicts with the tracker's own switch rule;
 2. the sensor model's detection probabilities: one call per pair and waveform over the tracks of every environment
    that sends it (``pd_model(tx, rx, waveform, positions)``);
 3. pair by pair, in the sensor's pair order (each environment's own order, since detections come sorted by pair):
    ``compiled.receiver_update_batch``, the LMIPDA + PDA update of each environment's tracks with its own
    detections of the pair (LMIPDA couples tracks within one environment only);
-4. initiation, confirmation and deletion: each tracker's own code (``Tracker._initiate``,
-   ``Tracker._confirm_and_prune``) on its unused detections.
+4. initiation from the unused detections: :func:`range_only_initiation`, every range-only environment in one
+   compiled call (an environment with azimuth or fused-position detections initiates with ``Tracker._initiate``);
+5. the new tentative tracks appended, confirmation and deletion (``tracker.confirm_and_keep``) over all rows.
 
-Every environment gets the numbers its own ``Tracker.step`` would give (the same compiled kernels on the same
-rows; ``tests/test_batched_vector_env.py``). Stage 4 is still a Python call per environment: what remains of the
-per-environment cost (``benchmarks/vector_env_throughput.py``).
+Every environment gets the numbers its own ``Tracker.step`` would give, to the bit (the same compiled kernels on
+the same rows, the same operations in the same order; ``tests/test_batched_vector_env.py`` compares the trackers'
+whole state).
 """
 
 from __future__ import annotations
