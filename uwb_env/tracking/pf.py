@@ -111,17 +111,20 @@ these Gaussians under the UKF (``filter = "ukf"``, ``tracking.expectation``).
 Against the seed (``python scripts/seed002_neo.py --walks 5 [--likelihood seed]``: 80 % point of the NEO over 5
 random 20 m walks on ``indoor-monostatic``, T = 0.2 s, SKDU; LOS = the same floor with walls transparent to the
 radio). With the seed's
-own perception model (likelihood "seed") the LOS Fig. 2 is reproduced, trend included: 0.72 / 1.03 / 1.32 m for
-N_pulse 32 / 128 / 512 against the seed's 0.8 / 1.0 / 1.2 m; Fig. 3's T_int trend is flatter (0.96 / 1.03 /
-1.09 m against 0.6 / 0.9 / 1.5 m). Behind walls (OLOS) the fixed sigma_p loses the person (4.7-5.7 m against
-the seed's 2.0-2.9 m; 1.10 m at N_pulse 32): most detections then come from the low-SNR region of eq. 9, metres
-wide. The default likelihood ("snr", each detection's own sigma(SNR)) does better than the seed everywhere: LOS
-0.37 / 0.53 / 0.70 m, OLOS 0.84 / 0.92 / 1.11 m (N_pulse) and 0.72 / 0.92 / 0.97 m (T_int 2 / 4 / 6 ns).
-Fig. 4 (OLOS, ``python scripts/seed002_neo.py --walks 5``): SKDU 0.94 / 0.92 / 1.45 m at T = 0.5 / 0.2 / 0.1 s
-(seed: below 2.7 m at 0.5 and 0.2 s); SDL 1.12 / 0.65 / 1.06 m (seed: 5.0 and 2.7 m at 0.5 and 0.2 s, best at
-0.1 s): the seed's order on these 5 walks. On 20 walks SKDU 1.35 / 1.15 / 1.73 m, SDL 1.17 / 0.91 / 1.10 m, SDL
-minus SKDU -0.19 [-0.35, -0.05], -0.23 [-0.41, +0.02], -0.63 [-1.09, -0.24] m (90 % bootstrap over walks): at
-0.5 s the two are a few tenths apart and the 5-walk order does not hold (SDL falls back to a broad cloud when
+own perception model (likelihood "seed") the LOS Fig. 2 keeps the seed's trend, a little below it: 0.68 / 0.76 /
+1.05 m for N_pulse 32 / 128 / 512 against the seed's 0.8 / 1.0 / 1.2 m; Fig. 3's T_int trend is flatter (0.70 /
+0.76 / 0.81 m against 0.6 / 0.9 / 1.5 m). Behind walls (OLOS) the fixed sigma_p holds the person at 1.18-1.48 m
+(the seed's 2.0-2.9 m) but loses it at N_pulse 512 (5.34 m): most detections then come from the low-SNR region of
+eq. 9, metres wide. The default likelihood ("snr", each detection's own sigma(SNR)) does better than the seed
+everywhere: LOS 0.36 / 0.47 / 0.63 m (N_pulse) and 0.31 / 0.47 / 0.58 m (T_int 2 / 4 / 6 ns), OLOS 0.98 / 0.88 /
+1.06 m and 1.07 / 0.88 / 1.04 m, where the seed's OLOS orderings no longer hold (on 20 walks N_pulse 1.50 / 1.31 /
+1.26 m, T_int 1.27 / 1.31 / 1.40 m). Figures of the per-waveform calibration of ``indoor-monostatic``.
+Fig. 4 (OLOS, ``python scripts/seed002_neo.py --walks 5``): SKDU 1.06 / 0.88 / 1.40 m at T = 0.5 / 0.2 / 0.1 s
+(seed: below 2.7 m at 0.5 and 0.2 s); SDL 1.08 / 0.66 / 1.25 m (seed: 5.0 and 2.7 m at 0.5 and 0.2 s, best at
+0.1 s): the seed's order at 0.2 and 0.1 s, a tie at 0.5 s on these 5 walks. On 20 walks SKDU 1.31 / 1.31 / 1.72 m,
+SDL 1.17 / 0.94 / 1.19 m (before the recalibration SKDU 1.35 / 1.15 / 1.73 m, SDL 1.17 / 0.91 / 1.10 m, SDL
+minus SKDU -0.19 [-0.35, -0.05], -0.23 [-0.41, +0.02], -0.63 [-1.09, -0.24] m, 90 % bootstrap over walks; not
+rerun): at 0.5 s the two are a few tenths apart (SDL falls back to a broad cloud when
 its velocity is uncertain: C_v per axis ~0.75 m/s at 0.5 s against SKDU's v / sqrt 2); SDL's advantage grows as
 T shrinks, as the seed finds, but not because its learnt velocity gets more accurate (|v_el - v| ~0.7 m/s at
 every T with the 1 s window): SKDU degrades. Its cloud spreads per axis by v sqrt(T t (1/2 + 1/(2 ln 10))) in t
@@ -130,7 +133,9 @@ while the walker moves 1 m in one direction; its position NEES median grows 1.5 
 literal SDL (N_v = 5, no spread) gives 2.81 / 3.57 / 5.47 m on the 5 walks: the seed's order at 0.5 s (its 5 m),
 worse than SKDU at every T (the SDL bullet above). The seed's sigma_m also makes the SKDU cloud overconfident:
 position NEES ~6 (2 expected) at T = 0.2 s on ``indoor-monostatic``, ~2.5 with sigma_m = 0.2 m (which also lowers
-the 80 % point to 0.72 m).
+the 80 % point to 0.72 m). These diagnostics (velocity errors, NEES, the literal SDL, the spread, window, sigma_a and
+MAP figures above) were measured before the per-waveform recalibration of ``indoor-monostatic`` and not rerun; the
+80 % points of ``seed002_neo`` above are the recalibrated ones.
 """
 
 from __future__ import annotations
