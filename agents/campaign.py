@@ -3,7 +3,7 @@ r"""Monte Carlo campaign: one environment x schemes x N seeded runs, paired by c
 The library behind ``uwb-env-evaluate`` (``uwb_env.agents.cli``; ``scripts/evaluate.py`` runs the same):
 
     uwb-env-evaluate --preset seed003 --runs 100 --out results/seed003
-    uwb-env-evaluate --env uwb_env/UrbanWaveform-v2 --schemes myopic round-robin random fixed-0 --baseline myopic
+    uwb-env-evaluate --env uwb_env/UrbanWaveform-v3 --schemes myopic round-robin random fixed-0 --baseline myopic
 
 A **scheme** is ``SCHEDULER[@TRACKER]``: the scheduler is one of ``uwb_env.agents.scheduler_names()`` (``myopic``,
 ``round-robin``, ``random``, ``fixed-K``, ``lookahead-D``), the tracker ``scenario`` (default: the scenario's

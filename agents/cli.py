@@ -36,15 +36,15 @@ from uwb_env.envs import ENV_IDS
 EVALUATE_DOC = """Monte Carlo campaign: one environment x schemes x N seeded runs, paired by common random numbers.
 
     uwb-env-evaluate --preset seed003 --runs 100 --out results/seed003
-    uwb-env-evaluate --env uwb_env/UrbanWaveform-v2 --schemes myopic round-robin random fixed-0 --baseline myopic
+    uwb-env-evaluate --env uwb_env/UrbanWaveform-v3 --schemes myopic round-robin random fixed-0 --baseline myopic
 
 See ``uwb_env.agents.campaign`` for the output folder and the per-run metrics.
 """
 
 TRAIN_DOC = """Train an RL scheduler (stable-baselines3 / sb3-contrib) on a registered uwb_env environment.
 
-    uwb-env-train --env uwb_env/UrbanWaveform-v2 --algo maskable-ppo --timesteps 200000 --out runs/urban-mppo
-    uwb-env-train --env uwb_env/UrbanWaveform-v2 --algo maskable-ppo --timesteps 400000 --out runs/urban-mppo --resume
+    uwb-env-train --env uwb_env/UrbanWaveform-v3 --algo maskable-ppo --timesteps 200000 --out runs/urban-mppo
+    uwb-env-train --env uwb_env/UrbanWaveform-v3 --algo maskable-ppo --timesteps 400000 --out runs/urban-mppo --resume
     uwb-env-train --env uwb_env/IndoorJoint-v1 --algo dqn --timesteps 50000 --hyper learning_rate=3e-4 \\
         --env-kwarg fidelity=parametric --out runs/joint-dqn
 
@@ -162,7 +162,7 @@ def campaign_from_args(args: argparse.Namespace) -> Campaign:
     preset = PRESETS[args.preset] if args.preset else {}
     schemes = args.schemes or preset.get("schemes") or ["myopic", "round-robin"]
     return Campaign(
-        env=args.env or preset.get("env") or "uwb_env/UrbanWaveform-v2",
+        env=args.env or preset.get("env") or "uwb_env/UrbanWaveform-v3",
         schemes=tuple(schemes),
         baseline=args.baseline or (preset.get("baseline") if not args.schemes else None) or schemes[-1],
         runs=args.runs,
@@ -207,7 +207,7 @@ def train_parser() -> argparse.ArgumentParser:
         prog="uwb-env-train", description=TRAIN_DOC, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     ap.add_argument("--engine", choices=ENGINES, default="sb3", help="stable-baselines3 (default) or RLlib (.[ray])")
-    ap.add_argument("--env", default="uwb_env/UrbanWaveform-v2", choices=sorted(ENV_IDS))
+    ap.add_argument("--env", default="uwb_env/UrbanWaveform-v3", choices=sorted(ENV_IDS))
     ap.add_argument("--algo", choices=ALGORITHM_NAMES, help="sb3: default maskable-ppo; rllib: ppo (default) or dqn")
     ap.add_argument("--timesteps", type=count(1), default=100_000, help="environment steps in total, >= 1")
     ap.add_argument("--out", type=folder, required=True, help="the run's folder")

@@ -6,21 +6,21 @@ from typing import Any
 
 PRESETS: dict[str, dict[str, Any]] = {
     "seed003": {
-        "env": "uwb_env/UrbanWaveform-v2",
+        "env": "uwb_env/UrbanWaveform-v3",
         "schemes": ["myopic", "round-robin", "round-robin@open-loop"],
         "baseline": "round-robin@open-loop",
         "reference": {"confirmed": "+15 %", "true_confirmed": "+15 %", "rmse_m": "-60 %"},
         "title": "Seed 003: closed loop (myopic + VS-IMM) vs open loop (round-robin + one NCV UKF)",
     },
     "schedulers": {
-        "env": "uwb_env/UrbanWaveform-v2",
+        "env": "uwb_env/UrbanWaveform-v3",
         "schemes": ["myopic", "myopic-pd", "lookahead-3", "round-robin", "random"] + [f"fixed-{w}" for w in range(6)],
         "baseline": "myopic",
         "reference": {},
         "title": "Waveform schedulers on urban-intersection (VS-IMM / LMIPDA tracker)",
     },
     "seed003-ablation": {
-        "env": "uwb_env/UrbanWaveform-v2",
+        "env": "uwb_env/UrbanWaveform-v3",
         "schemes": ["myopic", "round-robin", "myopic@open-loop", "round-robin@open-loop"],
         "baseline": "myopic",
         "reference": {},
@@ -30,7 +30,7 @@ PRESETS: dict[str, dict[str, Any]] = {
         ),
     },
     "wideband": {
-        "env": "uwb_env/UrbanWideband-v0",
+        "env": "uwb_env/UrbanWideband-v1",
         "schemes": ["myopic-pd", "myopic", "lookahead-3", "round-robin", "random"] + [f"fixed-{w}" for w in range(8)],
         "baseline": "myopic-pd",
         "reference": {},

@@ -1,4 +1,4 @@
-"""Environment steps per second on UrbanWaveform-v2 (parametric), one process, per scheduler.
+"""Environment steps per second on UrbanWaveform-v3 (parametric), one process, per scheduler.
 
 Run: python benchmarks/env_throughput.py [--episodes N] [--repeats K] [--agents random myopic ...]
 
@@ -37,7 +37,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--episodes", type=int, default=5)
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--env", default="uwb_env/UrbanWaveform-v2")
+    ap.add_argument("--env", default="uwb_env/UrbanWaveform-v3")
     ap.add_argument("--agents", nargs="+", default=["random", "myopic"], help=f"scheduler names: {scheduler_names()}")
     args = ap.parse_args()
     env = gym.make(args.env)

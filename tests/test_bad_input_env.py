@@ -111,7 +111,7 @@ def test_joint_env_keywords_that_leave_no_plan_are_refused():
         gym.make("uwb_env/IndoorJoint-v1", unavailable_waveforms=(0, 1, 2))
     _assert_names(info.value, "(0, 1, 2)", "at least one valid plan")
     with pytest.raises(ValueError, match="out_of_service_rx") as info:
-        gym.make("uwb_env/UrbanWaveform-v2", out_of_service_rx=("rx1", "rx2"))
+        gym.make("uwb_env/UrbanWaveform-v3", out_of_service_rx=("rx1", "rx2"))
     _assert_names(info.value, "('rx1', 'rx2')", "at least one receiver in service")
 
 
@@ -147,6 +147,7 @@ CONFIG_VALUES = [
     ({"sensing.clutter.density_per_m2": -1.0}, "sensing.clutter: ClutterConfig.density_per_m2", "-1.0", "[0.0, 1.0]"),
     ({"sensing.clutter.discrete_fraction": 1.5}, "discrete_fraction", "1.5", "[0.0, 1.0]"),
     ({"sensing.detection_gain_db": 11.0}, "detection_gain_db", "11.0", "[-10.0, 10.0]"),
+    ({"sensing.noise_window_cells": -1.0}, "noise_window_cells", "-1.0", "[0.0, 10000.0]"),
     ({"sensing.ghost_rate": -0.1}, "ghost_rate", "-0.1", "[0.0, 100.0]"),
     ({"sensing.array_beams": "steer"}, "array_beams", "'steer'", "one of ('dft', 'boresight', 'steered')"),
     ({"sensing.signal.align_scans": 1}, "align_scans", "= 1", "one of (True, False)"),

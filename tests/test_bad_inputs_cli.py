@@ -20,7 +20,7 @@ import pytest
 from uwb_env.agents.campaign import Campaign, check_workers
 from uwb_env.agents.cli import evaluate_main, parse_overrides, train_main
 
-U = "uwb_env/UrbanWaveform-v2"
+U = "uwb_env/UrbanWaveform-v3"
 
 # (argv, substrings the error must contain: the field, the value, what is allowed)
 EVALUATE = {

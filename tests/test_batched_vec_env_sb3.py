@@ -24,7 +24,7 @@ from uwb_env.agents.cli import train_main
 from uwb_env.agents.rl.batched_vec_env import BatchedVecEnv, make_batched_vec_env, make_batched_vector_env
 from uwb_env.agents.rl.training import TrainConfig, make_vec_env
 
-URBAN = "uwb_env/UrbanWaveform-v2"
+URBAN = "uwb_env/UrbanWaveform-v3"
 MASKED_ID, MASKED_KWARGS = "uwb_env/IndoorSubsetWarmup-v1", {"out_of_service_rx": ["rx1"]}
 
 

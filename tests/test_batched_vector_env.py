@@ -87,7 +87,7 @@ def _play(env_id: str, mode: AutoresetMode, extra: int, kwargs: dict, masked_res
 @pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
 def test_equal_to_sync_vector_env_with_episodes_ending_at_different_steps(mode: AutoresetMode) -> None:
     """UrbanWaveform (140-scan episodes): env 1 restarted at step 20, env 2 at step 45, so the three end apart."""
-    _play("uwb_env/UrbanWaveform-v2", mode, 50, {"include_lookahead": True}, {20: [1], 45: [2]})
+    _play("uwb_env/UrbanWaveform-v3", mode, 50, {"include_lookahead": True}, {20: [1], 45: [2]})
 
 
 @pytest.mark.parametrize("env_id", _batched_ids())
@@ -98,7 +98,7 @@ def test_every_batched_id_equal_to_sync(env_id: str) -> None:
 
 def test_equal_with_azimuth_measurements() -> None:
     """Receivers that measure azimuth: initiation takes the trackers' own path (``BatchedTracker._initiate``)."""
-    _play("uwb_env/UrbanWaveform-v2", AutoresetMode.NEXT_STEP, 4, {"sensing.measure_doa": True}, {})
+    _play("uwb_env/UrbanWaveform-v3", AutoresetMode.NEXT_STEP, 4, {"sensing.measure_doa": True}, {})
 
 
 def test_lookahead_costs_and_masks_are_the_single_envs() -> None:
@@ -119,7 +119,7 @@ def test_lookahead_costs_and_masks_are_the_single_envs() -> None:
 
 
 def test_bad_inputs_raise_naming_the_field() -> None:
-    env_id = "uwb_env/UrbanWaveform-v2"
+    env_id = "uwb_env/UrbanWaveform-v3"
     with pytest.raises(ValueError, match="num_envs=0"):
         UWBVectorEnv(0)
     with pytest.raises(ValueError, match="fidelity='signal'"):

@@ -148,7 +148,7 @@ def test_sigkill_of_the_campaign_leaves_no_worker_and_the_resume_matches(tmp_pat
 
 def _small(runs: int = 3) -> Campaign:
     return Campaign(
-        env="uwb_env/UrbanWaveform-v2",
+        env="uwb_env/UrbanWaveform-v3",
         schemes=("myopic", "round-robin"),
         baseline="round-robin",
         runs=runs,

@@ -14,7 +14,7 @@ from uwb_env.waveforms.chirp import range_migration_gain
 @pytest.fixture(scope="module")
 def wideband():
     """The wideband urban env 45 scans in with at least one confirmed track (long 160 MHz chirps at 7 ms)."""
-    env = gym.make("uwb_env/UrbanWaveform-v2", scenario="urban-intersection-wideband").unwrapped
+    env = gym.make("uwb_env/UrbanWaveform-v3", scenario="urban-intersection-wideband").unwrapped
     env.reset(seed=1)
     assert env.detection_probabilities() is None  # nothing confirmed yet
     for _ in range(45):

@@ -87,7 +87,7 @@ def test_a_receiver_out_of_service_masks_every_subset_that_needs_it():
 
 
 def test_an_unavailable_waveform_masks_its_actions_and_an_idle_receiver_delivers_nothing():
-    env = gym.make("uwb_env/UrbanWaveform-v2", unavailable_waveforms=(0, 3), out_of_service_rx=("rx2",))
+    env = gym.make("uwb_env/UrbanWaveform-v3", unavailable_waveforms=(0, 3), out_of_service_rx=("rx2",))
     e = env.unwrapped
     np.testing.assert_array_equal(e.action_masks(), [False, True, True, False, True, True])
     assert all(not p.active_rx[1] and p.active_rx[0] for p in e.plans)  # every plan listens with rx1 only
@@ -118,7 +118,7 @@ def test_describe_action_names_the_waveform_and_the_receivers():
     e = gym.make("uwb_env/IndoorJoint-v1").unwrapped
     assert e.describe_action(0) == "action 0: waveform ns20480; receivers rx1, rx2, rx3"
     assert e.describe_action(59) == "action 59: waveform ns81920; receivers rx4, rx5, rx6"
-    u = gym.make("uwb_env/UrbanWaveform-v2").unwrapped
+    u = gym.make("uwb_env/UrbanWaveform-v3").unwrapped
     assert u.describe_action(1).startswith(f"action 1: waveform {u.cfg.waveforms[1].name}; receivers rx1, rx2")
 
 

@@ -31,14 +31,14 @@ def test_gymnasium_and_sb3_env_checkers_pass(env_id):
 
 
 def test_action_spaces_enumerate_the_plans():
-    assert gym.make("uwb_env/UrbanWaveform-v2").action_space.n == 6  # 4 seed chirps + 2 at a 7 ms PRI
+    assert gym.make("uwb_env/UrbanWaveform-v3").action_space.n == 6  # 4 seed chirps + 2 at a 7 ms PRI
     assert gym.make("uwb_env/IndoorSensorSubset-v1").action_space.n == 20  # C(6, 3)
     assert gym.make("uwb_env/IndoorJoint-v1").action_space.n == 60  # 3 waveforms x C(6, 3)
     assert gym.make("uwb_env/IndoorSensorSubset-v1", subset_size=2).action_space.n == 15
 
 
 def _rollout(seed, actions, **kw):
-    env = gym.make("uwb_env/UrbanWaveform-v2", **kw)
+    env = gym.make("uwb_env/UrbanWaveform-v3", **kw)
     obs, _ = env.reset(seed=seed)
     out = [obs]
     rewards = []
@@ -61,9 +61,9 @@ def test_same_seed_and_actions_give_identical_trajectories():
 
 def test_lookahead_costs_are_pure():
     """Calling the lookahead changes neither the env nor its random streams: the trajectory is the same."""
-    env = gym.make("uwb_env/UrbanWaveform-v2").unwrapped
+    env = gym.make("uwb_env/UrbanWaveform-v3").unwrapped
     env.reset(seed=3)
-    ref = gym.make("uwb_env/UrbanWaveform-v2").unwrapped
+    ref = gym.make("uwb_env/UrbanWaveform-v3").unwrapped
     ref.reset(seed=3)
     for k in range(50):
         c1 = env.lookahead_costs()
@@ -81,7 +81,7 @@ def test_lookahead_matches_the_realised_cost_without_clutter_and_with_steady_snr
 
     Pooled over four episodes: one episode's 90th percentile is its ~13th worst scan, and the scans around a second
     track's confirmation (~10 in a row) make it swing between 0.09 and 0.17 from episode to episode."""
-    env = gym.make("uwb_env/UrbanWaveform-v2", **NO_CLUTTER_SWERLING_0).unwrapped
+    env = gym.make("uwb_env/UrbanWaveform-v3", **NO_CLUTTER_SWERLING_0).unwrapped
     rel = []
     for seed in range(1, 5):
         env.reset(seed=seed)
@@ -97,7 +97,7 @@ def test_lookahead_matches_the_realised_cost_without_clutter_and_with_steady_snr
 
 def test_missed_targets_are_penalised():
     """Before any track is confirmed, every alive target costs the penalty: losing tracks cannot pay."""
-    env = gym.make("uwb_env/UrbanWaveform-v2", missed_target_penalty_m2=50.0).unwrapped
+    env = gym.make("uwb_env/UrbanWaveform-v3", missed_target_penalty_m2=50.0).unwrapped
     env.reset(seed=0)
     _, r, _, _, info = env.step(0)
     assert info["confirmed_tracks"] == 0
@@ -108,7 +108,7 @@ def test_missed_targets_are_penalised():
 
 @pytest.mark.parametrize("bad", [6, -1, 1.5, "1", np.array([0, 1])])
 def test_invalid_actions_raise_naming_the_value(bad):
-    env = gym.make("uwb_env/UrbanWaveform-v2").unwrapped
+    env = gym.make("uwb_env/UrbanWaveform-v3").unwrapped
     env.reset(seed=0)
     with pytest.raises(ValueError, match="action="):
         env.step(bad)
@@ -116,17 +116,17 @@ def test_invalid_actions_raise_naming_the_value(bad):
 
 def test_bad_env_arguments_raise():
     with pytest.raises(ValueError, match="action_kind='x'"):
-        gym.make("uwb_env/UrbanWaveform-v2", action_kind="x")
+        gym.make("uwb_env/UrbanWaveform-v3", action_kind="x")
     with pytest.raises(ValueError, match="measure_doa = True"):  # the chirp signal path measures no azimuth
-        gym.make("uwb_env/UrbanWaveform-v2", fidelity="signal", **{"sensing.measure_doa": True})
+        gym.make("uwb_env/UrbanWaveform-v3", fidelity="signal", **{"sensing.measure_doa": True})
     with pytest.raises(ValueError, match="fidelity='exact'"):
-        gym.make("uwb_env/UrbanWaveform-v2", fidelity="exact")
+        gym.make("uwb_env/UrbanWaveform-v3", fidelity="exact")
     with pytest.raises(ValueError, match="subset_size=7"):
         gym.make("uwb_env/IndoorSensorSubset-v1", subset_size=7)
 
 
 def test_episode_length_and_dict_observation():
-    env = gym.make("uwb_env/UrbanWaveform-v2", observation="dict", include_lookahead=True)
+    env = gym.make("uwb_env/UrbanWaveform-v3", observation="dict", include_lookahead=True)
     obs, _ = env.reset(seed=2)
     assert set(obs) == {"tracks", "previous_action", "lookahead"}
     n, terminated, truncated = 0, False, False
@@ -138,7 +138,7 @@ def test_episode_length_and_dict_observation():
 
 
 def test_render_rgb_array():
-    env = gym.make("uwb_env/UrbanWaveform-v2", render_mode="rgb_array")
+    env = gym.make("uwb_env/UrbanWaveform-v3", render_mode="rgb_array")
     env.reset(seed=0)
     for _ in range(30):
         env.step(1)
@@ -148,7 +148,7 @@ def test_render_rgb_array():
 
 
 def test_schedulers_act_as_specified():
-    env = gym.make("uwb_env/UrbanWaveform-v2").unwrapped
+    env = gym.make("uwb_env/UrbanWaveform-v3").unwrapped
     obs, _ = env.reset(seed=4)
     rr, fx, rnd, my = RoundRobin(), Fixed(2), Random(), Myopic()
     for s in (rr, fx, rnd, my):

@@ -18,7 +18,7 @@ SMALL = {"n_scans": 12, "targets.1.birth_time_s": 1.0}
 
 def _campaign(runs: int) -> Campaign:
     return Campaign(
-        env="uwb_env/UrbanWaveform-v2",
+        env="uwb_env/UrbanWaveform-v3",
         schemes=("myopic", "round-robin@open-loop"),
         baseline="round-robin@open-loop",
         runs=runs,
@@ -91,13 +91,13 @@ def test_bad_campaigns_raise(capsys):
     with pytest.raises(ValueError, match="env='x'"):
         Campaign(env="x", schemes=("myopic",), baseline="myopic", runs=3)
     with pytest.raises(ValueError, match="runs=1"):
-        Campaign(env="uwb_env/UrbanWaveform-v2", schemes=("myopic",), baseline="myopic", runs=1)
+        Campaign(env="uwb_env/UrbanWaveform-v3", schemes=("myopic",), baseline="myopic", runs=1)
     with pytest.raises(ValueError, match="tracker 'nn'"):
-        Campaign(env="uwb_env/UrbanWaveform-v2", schemes=("myopic@nn",), baseline="myopic@nn", runs=3)
+        Campaign(env="uwb_env/UrbanWaveform-v3", schemes=("myopic@nn",), baseline="myopic@nn", runs=3)
     with pytest.raises(ValueError, match="scheduler='greedy'"):
-        Campaign(env="uwb_env/UrbanWaveform-v2", schemes=("greedy",), baseline="greedy", runs=3)
+        Campaign(env="uwb_env/UrbanWaveform-v3", schemes=("greedy",), baseline="greedy", runs=3)
     with pytest.raises(ValueError, match="baseline='random'"):
-        Campaign(env="uwb_env/UrbanWaveform-v2", schemes=("myopic",), baseline="random", runs=3)
+        Campaign(env="uwb_env/UrbanWaveform-v3", schemes=("myopic",), baseline="random", runs=3)
     with pytest.raises(SystemExit) as e:
         main(["--set", "n_scans", "--runs", "2"])
     assert e.value.code == 2 and "--set 'n_scans'" in capsys.readouterr().err

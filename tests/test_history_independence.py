@@ -23,7 +23,7 @@ from uwb_env.agents.campaign import play
         ("uwb_env/IndoorSensorSubset-v1", "random", {}),
         ("uwb_env/IndoorSensorSubset-v1", "myopic", {"tracker": "phd"}),
         ("uwb_env/IndoorSensorSubset-v1", "random", {"tracker": "pf"}),
-        ("uwb_env/UrbanWaveform-v2", "myopic", {}),
+        ("uwb_env/UrbanWaveform-v3", "myopic", {}),
     ],
 )
 def test_an_episode_is_the_same_fresh_and_after_others(env_id, scheduler, kwargs):

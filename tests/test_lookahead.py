@@ -17,7 +17,7 @@ from uwb_env.tracking.tracker import Tracker
 @pytest.fixture(scope="module")
 def mid_episode():
     """An urban env 40 scans in (inside the 3-model window), with confirmed tracks."""
-    env = gym.make("uwb_env/UrbanWaveform-v2").unwrapped
+    env = gym.make("uwb_env/UrbanWaveform-v3").unwrapped
     env.reset(seed=5)
     for k in range(40):
         env.step(k % 4)
@@ -144,7 +144,7 @@ def test_expected_measurements_batch_the_waveforms(mid_episode):
 def test_pda_q2_costs_are_never_below_the_clutter_free_ones():
     """q_2 <= P_G < 1 removes less of K S K^T than seed 003's q_2 = 1, so every action's expected trace is higher;
     the env validates the option."""
-    env = gym.make("uwb_env/UrbanWaveform-v2", lookahead_q2="pda").unwrapped
+    env = gym.make("uwb_env/UrbanWaveform-v3", lookahead_q2="pda").unwrapped
     env.reset(seed=5)
     for k in range(30):
         env.step(k % 4)
@@ -154,4 +154,4 @@ def test_pda_q2_costs_are_never_below_the_clutter_free_ones():
     assert np.all(pda >= free)
     assert np.all(pda > free * (1.0 + 1e-6))  # tracks exist, so the difference is real, not rounding
     with pytest.raises(ValueError, match="q2="):
-        gym.make("uwb_env/UrbanWaveform-v2", lookahead_q2="kershaw")
+        gym.make("uwb_env/UrbanWaveform-v3", lookahead_q2="kershaw")

@@ -42,7 +42,7 @@ def test_the_wheel_holds_uwb_env_agents_and_no_scripts_or_agents_package(wheel):
     assert tops == {"uwb_env"}
     for module in ("agents/__init__.py", "agents/campaign.py", "agents/cli.py", "agents/summary.py",
                    "agents/storage.py", "agents/rl/training.py", "agents/studies/calibrate_chirp.py",
-                   "agents/rl/presets/UrbanWaveform-v2.yaml"):  # fmt: skip
+                   "agents/rl/presets/UrbanWaveform-v3.yaml"):  # fmt: skip
         assert f"uwb_env/{module}" in names
     entry = next(n for n in names if n.endswith("entry_points.txt"))
     text = zipfile.ZipFile(wheel).read(entry).decode()

@@ -18,7 +18,7 @@ from uwb_env.agents.rl import (
 )
 from uwb_env.envs import ENV_IDS as REGISTERED
 
-ENV_IDS = ["uwb_env/UrbanWaveform-v2", "uwb_env/IndoorSensorSubset-v1", "uwb_env/IndoorJoint-v1"]
+ENV_IDS = ["uwb_env/UrbanWaveform-v3", "uwb_env/IndoorSensorSubset-v1", "uwb_env/IndoorJoint-v1"]
 SMALL = {  # a few hundred steps: small rollouts, one evaluation episode, no learning delay
     "n_envs": 2,
     "eval_freq": 10**9,
@@ -91,10 +91,10 @@ def test_resume_continues_the_step_counter_normaliser_and_replay_buffer(tmp_path
 
 
 def test_presets_are_versioned_and_unknown_names_raise():
-    p = load_preset("uwb_env/UrbanWaveform-v2", "maskable-ppo")
+    p = load_preset("uwb_env/UrbanWaveform-v3", "maskable-ppo")
     assert p["version"] == 1 and p["common"]["n_envs"] >= 1 and p["algo"]["policy"] == "MlpPolicy"
     with pytest.raises(ValueError, match="algo='sac'"):
-        load_preset("uwb_env/UrbanWaveform-v2", "sac")
+        load_preset("uwb_env/UrbanWaveform-v3", "sac")
     with pytest.raises(ValueError, match="no preset"):
         load_preset("uwb_env/Nope-v0", "ppo")
 

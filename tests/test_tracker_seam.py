@@ -112,9 +112,9 @@ def test_registry_builds_a_protocol_tracker(kind):
 def test_tracker_argument_equals_the_dotted_override_and_the_default():
     """``tracker="imm-lmipda"`` (the default kind) and the override give the same episode as no argument."""
     envs = [
-        gym.make("uwb_env/UrbanWaveform-v2"),
-        gym.make("uwb_env/UrbanWaveform-v2", tracker="imm-lmipda"),
-        gym.make("uwb_env/UrbanWaveform-v2", **{"tracker.kind": "imm-lmipda"}),
+        gym.make("uwb_env/UrbanWaveform-v3"),
+        gym.make("uwb_env/UrbanWaveform-v3", tracker="imm-lmipda"),
+        gym.make("uwb_env/UrbanWaveform-v3", **{"tracker.kind": "imm-lmipda"}),
     ]
     runs = []
     for env in envs:

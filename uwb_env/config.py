@@ -958,6 +958,12 @@ class SensingConfig:
     path's detector searches the neighbouring cells and beams for the peak, which a single-cell square-law test
     does not (calibrated on the chirp signal path by ``scripts/calibrate_chirp.py``; 0 by default).
 
+    ``noise_window_cells`` (n): a peak detector counts a target as detected when any peak lies within its
+    truth-matching window, so a noise peak there counts too; the parametric Pd is then
+    1 - (1 - Pd_echo) (1 - Pfa)^n (``uwb_env.sensing.pd.windowed_detection_probability``), n the window's cells
+    times the beams times the detector's noise peaks per cell and per unit Pfa (derived for the chirp chain in
+    ``uwb_env.scenarios.urban_intersection``); 0 (the default) is the single-cell test.
+
     Multipath ghosts (parametric path; measured on the chirp signal path by ``scripts/calibrate_chirp.py``): every
     covered target yields, per pair and scan, a Poisson number of mean ``ghost_rate`` of detections on its paths
     through a scatterer, an exponential excess of mean ``ghost_range_offset_m`` beyond its bistatic range, its
@@ -986,6 +992,7 @@ class SensingConfig:
     clutter_residue_looks: float = 0.0
     array_beams: Literal["dft", "boresight", "steered"] = "dft"
     detection_gain_db: float = 0.0
+    noise_window_cells: float = 0.0
     ghost_rate: float = 0.0
     ghost_range_offset_m: float = 20.0
     ghost_range_rate_std_mps: float = 2.5
@@ -998,6 +1005,7 @@ class SensingConfig:
         _choice("SensingConfig", "fidelity", self.fidelity, ("parametric", "signal"))
         _choice("SensingConfig", "array_beams", self.array_beams, ("dft", "boresight", "steered"))
         _in_range("SensingConfig", "detection_gain_db", self.detection_gain_db, -10.0, 10.0)
+        _in_range("SensingConfig", "noise_window_cells", self.noise_window_cells, 0.0, 1e4)
         _in_range("SensingConfig", "ghost_rate", self.ghost_rate, 0.0, 100.0)
         _positive("SensingConfig", "ghost_range_offset_m", self.ghost_range_offset_m)
         _non_negative("SensingConfig", "ghost_range_rate_std_mps", self.ghost_range_rate_std_mps)

@@ -226,7 +226,7 @@ def test_expected_update_equals_the_numpy_lookahead(filt, q2):
 
 def test_lookahead_costs_agree_across_back_ends():
     """Myopic costs mid-episode with the compiled tracker and its numpy twin holding the same tracks."""
-    env = gym.make("uwb_env/UrbanWaveform-v2").unwrapped
+    env = gym.make("uwb_env/UrbanWaveform-v3").unwrapped
     env.reset(seed=5)
     for k in range(30):
         env.step(k % 4)

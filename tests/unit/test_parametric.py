@@ -454,3 +454,35 @@ def test_a_waveforms_own_detection_gain_scales_its_pd_only():
     np.testing.assert_array_equal(snr_b, snr_a)  # the SNR (and so R) is the echo's; the gain acts in Pd only
     assert np.all(pd_b[[0, 2]] < pd_a[[0, 2]]) and np.all(pd_b[1] > pd_a[1])  # -2 / -6.5 dB and +1 dB
     np.testing.assert_allclose(b._mean_link(0, 0, pos, np.arange(3), 1.0, 3)[3], pd_b, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize(("swerling", "power_dbm"), [(1, 10.0), (1, -40.0), (0, 14.0)])
+def test_empirical_detection_rate_with_a_noise_window_matches_the_windowed_pd(swerling, power_dbm):
+    """noise_window_cells n (issue 15): a covered target is detected by its echo's test OR a noise peak among the n
+    cells of the truth-matching window; drawn detections vs sum over scans of 1 - (1 - Pd_echo) (1 - Pfa)^n (4
+    binomial sigmas), and the sensor model (compiled and numpy reference) gives the same Pd. At -40 dBm the echo is
+    buried (SNR ~ 1e-4) and the rate is the n-cell term itself."""
+    from uwb_env.config import apply_overrides
+    from uwb_env.sensing.pd import windowed_detection_probability
+
+    cells = 50.0
+    cfg = apply_overrides(
+        tiny_config(n_scans=20000, swerling=swerling, power_dbm=power_dbm), {"sensing.noise_window_cells": cells}
+    )
+    plan = ScanPlan.all_listening(0, 1, 2)
+    sensor, ep, out = run(cfg, 13, [plan])
+    for r in range(2):
+        hits = sum(int((d[r].origin == 0).sum()) for d in out)
+        snr = np.array([sensor.mean_snr(ep.geometry, k, plan)[0, r, 0] for k in range(1, cfg.n_scans + 1)])
+        p = windowed_detection_probability(detection_probability(snr, 1e-3, swerling), 1e-3, cells)
+        assert 0.03 < p.mean() < 0.97, "the check must be informative"
+        assert abs(hits - p.sum()) < 4 * math.sqrt((p * (1 - p)).sum())
+        if power_dbm < -30.0:
+            assert p.mean() == pytest.approx(1.0 - (1.0 - 1e-3) ** (cells + 1.0), rel=1e-3)
+    xy = np.array([[60.0, 40.0], [30.0, 80.0]])
+    for r in range(2):
+        pd = sensor.detection_probability_at(0, r, xy, 0, rcs_m2=1.0, swerling=swerling)
+        _, ok, snr, ref = sensor._mean_link_reference(0, r, xy, np.array([0]), 1.0, swerling)
+        np.testing.assert_allclose(pd, ref[0], rtol=1e-12)
+        expect = windowed_detection_probability(detection_probability(snr[0], 1e-3, swerling), 1e-3, cells)
+        np.testing.assert_allclose(pd, np.where(ok, expect, 0.0), rtol=1e-12)

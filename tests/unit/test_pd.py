@@ -48,3 +48,27 @@ def test_pd_is_monotone_in_snr_and_pfa(s1, s2, p1, p2, case):
     assert detection_probability(lo, p1, case) <= detection_probability(hi, p1, case) + 1e-12
     plo, phi = sorted((p1, p2))
     assert detection_probability(lo, plo, case) <= detection_probability(lo, phi, case) + 1e-12
+
+
+@pytest.mark.parametrize("pfa", [7e-4, 1e-3, 1e-6])
+@pytest.mark.parametrize("cells", [1.0, 61.92, 500.0])
+def test_noise_window_term_closed_forms(pfa, cells):
+    """P = 1 - (1 - Pd_echo) (1 - Pfa)^n: without an echo it is the n-cell noise term 1 - (1 - Pfa)^n; at SNR -> 0
+    the echo's own cell is one more noise cell, 1 - (1 - Pfa)^(n + 1); n = 0 is the single-cell Pd, bit for bit."""
+    from uwb_env.sensing.pd import noise_window_probability, windowed_detection_probability
+
+    assert windowed_detection_probability(0.0, pfa, cells) == pytest.approx(1.0 - (1.0 - pfa) ** cells, rel=1e-12)
+    assert noise_window_probability(pfa, cells) == pytest.approx(1.0 - (1.0 - pfa) ** cells, rel=1e-12)
+    assert noise_window_probability(pfa, 1.0) == pytest.approx(pfa, rel=1e-12)
+    for case in (0, 1, 3):
+        p0 = windowed_detection_probability(detection_probability(1e-12, pfa, case), pfa, cells)
+        assert p0 == pytest.approx(1.0 - (1.0 - pfa) ** (cells + 1.0), rel=1e-6)
+    snr = np.geomspace(1e-3, 1e3, 40)
+    pd = detection_probability(snr, pfa, 1)
+    assert np.array_equal(windowed_detection_probability(pd, pfa, 0.0), pd)
+    win = windowed_detection_probability(pd, pfa, cells)
+    assert np.all(win >= pd) and np.all(np.diff(win) > 0) and win[-1] <= 1.0
+    # independent events: the miss probability factorises
+    np.testing.assert_allclose(1.0 - win, (1.0 - pd) * (1.0 - pfa) ** cells, rtol=1e-12)
+    with pytest.raises(ValueError, match="cells"):
+        noise_window_probability(pfa, -1.0)

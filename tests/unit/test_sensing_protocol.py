@@ -51,7 +51,7 @@ def test_duplicate_registration_and_unsupported_combinations_raise(monkeypatch):
 @pytest.mark.parametrize(
     ("env_id", "kwargs"),
     [
-        ("uwb_env/UrbanWaveform-v2", {}),
+        ("uwb_env/UrbanWaveform-v3", {}),
         ("uwb_env/IndoorSensorSubset-v1", {}),
     ],
 )

@@ -63,6 +63,7 @@ import math
 
 from uwb_env.config import (
     Box,
+    ChirpSignalConfig,
     ChirpWaveformConfig,
     ClutterConfig,
     MaterialConfig,
@@ -92,15 +93,44 @@ WIDEBAND_HZ = 160e6
 # The parametric model calibrated on the signal path (scripts/calibrate_chirp.py, results/calibration-urban/report.md):
 # the detector's gain over the square-law model (the strongest of the neighbouring cells and beams), multipath ghosts
 # (rate per covered target, pair and scan; mean range offset beyond the target; range-rate spread) and the
-# zero-Doppler residue of the vegetation (its fraction of the scatterers' power; Doppler spread).
+# zero-Doppler residue of the vegetation (its fraction of the scatterers' power; Doppler spread); the signal
+# detector's noise peaks per image cell and unit Pfa (noise origin, clutter-only scans; section C), which sets the
+# noise window of the Pd model (noise_window_cells).
 CALIBRATED = {  # at Pfa 7e-4
-    "detection_gain_db": 1.30,
+    "detection_gain_db": 0.80,
+    "noise_peaks_per_cell_pfa": 0.3225,
     "ghost_rate": 0.0194,
     "ghost_range_offset_m": 22.1,
     "ghost_range_rate_std_mps": 2.63,
     "residue_fraction": 0.042,
     "doppler_spread_hz": 0.0,
 }
+
+
+def noise_window_cells(chirp: ChirpSignalConfig, n_beams: int, peaks_per_cell_pfa: float) -> float:
+    r"""The cells n of the parametric Pd 1 - (1 - Pd_echo) (1 - Pfa)^n (``SensingConfig.noise_window_cells``).
+
+    The signal path (``sensing.signal.chirp_sensor``) counts the target as detected when a merged peak lies within
+    one resolution cell of its echo in delay and in Doppler (``detection.delay_doppler.truth_origin``): a window of
+    2 x 2 resolution cells (2 / B_w by 2 / (B T1)) in each of the ``n_beams`` DFT beam images (orthogonal beams:
+    independent noise). One resolution cell is o_r x o_v image cells, o_r = ``sample_rate_factor`` x
+    ``delay_oversample`` delay rows (4) and o_v = ``doppler_oversample`` Doppler columns (4), so the window holds
+    A = L (2 o_r) (2 o_v) image cells (192 for L = 3). Oversampled cells are correlated and one excursion above the
+    threshold makes one peak, so the window's expected noise peaks are A rho Pfa, rho the chain's noise peaks per
+    image cell and unit Pfa (after the beam merge and the max_peaks cap; measured in clutter-only scans,
+    ``scripts/calibrate_chirp.py`` section C: 0.32 at Pfa 7e-4). For comparison, the Euler characteristic of a
+    chi-square (2 dof) field of correlation 1 - d^T M d / 2 (M the train's delay-Doppler second moments,
+    ``chirp_chain.pulse_train_information``) gives sqrt(det M) / (2 pi) (2 V_T - 1) Pfa excursions per unit
+    delay-Doppler area: 0.627 (2 V_T - 1) per resolution cell for every waveform of the library, i.e. rho = 0.53 at
+    Pfa 7e-4 (V_T = 7.26); the chain keeps about 0.6-0.7 of them (the guard suppression around stronger peaks, the
+    quadratic fit's rejections, the cap of ``max_peaks`` per beam). As n = A rho Pfa / Pfa independent cells,
+
+        n = L (2 o_r) (2 o_v) rho,         P(noise peak in the window) = 1 - (1 - Pfa)^n.
+
+    n does not depend on the waveform (bandwidth and PRI set the cell, not the cells per window).
+    """
+    rows = chirp.sample_rate_factor * chirp.delay_oversample
+    return n_beams * (2.0 * rows) * (2.0 * chirp.doppler_oversample) * peaks_per_cell_pfa
 
 
 def rectangle_walls(x0: float, x1: float, y0: float, y1: float, material: MaterialConfig) -> tuple[WallConfig, ...]:
@@ -209,6 +239,9 @@ def urban_intersection() -> ScenarioConfig:
             blind_zone_excess_m=7.5,
             measure_doa=False,
             detection_gain_db=CALIBRATED["detection_gain_db"],
+            noise_window_cells=noise_window_cells(
+                ChirpSignalConfig(), array.n_elements, CALIBRATED["noise_peaks_per_cell_pfa"]
+            ),
             ghost_rate=CALIBRATED["ghost_rate"],
             ghost_range_offset_m=CALIBRATED["ghost_range_offset_m"],
             ghost_range_rate_std_mps=CALIBRATED["ghost_range_rate_std_mps"],

@@ -9,7 +9,8 @@ call overhead at these sizes; this kernel does the same arithmetic in one compil
 
     mean_link   coverage (range limits, blind zone, opaque walls, array field of view, formed pair), azimuth,
                 mean SNR per waveform (radar equation with wall loss, the array's beam gain) and Pd (Swerling I /
-                III closed forms, averaged over the clutter-residue quadrature when the sensor has one)
+                III closed forms, averaged over the clutter-residue quadrature when the sensor has one, OR a
+                noise peak in the truth-matching window: 1 - (1 - Pd) (1 - p_noise), ``uwb_env.sensing.pd``)
 
 Swerling 0 (Marcum Q) has no compiled form here; the caller evaluates it on the returned SNR.
 """
@@ -92,6 +93,7 @@ def mean_link(
     weights,
     pfa,
     swerling,
+    p_noise=0.0,
 ):  # pragma: no cover - compiled
     """One pair's link at ``pos`` (N, 2) for W waveforms.
 
@@ -102,7 +104,8 @@ def mean_link(
         loss; beam_sines ``(M,)``, beam_kd = 2 pi d / lambda, n_elements L: the receiver's beams
         (``sensing.beams``; M = 0: gain 1); k ``(W,)``: radar constant per waveform, rcs: assumed RCS [m^2];
         gain ``(W, J)``: the detector's SCNR gain per residue node (J = 1, gain 1 without residue), weights
-        ``(J,)``; pfa; swerling 1 or 3 (else Pd = nan).
+        ``(J,)``; pfa; swerling 1 or 3 (else Pd = nan); p_noise: the probability of a noise peak in the detector's
+        truth-matching window, 1 - (1 - Pfa)^n (``pd.noise_window_probability``; 0: the single-cell test).
 
     Returns:
         ``(azimuth (N,) [rad], covered (N,), snr (W, N), pd (W, N))``; snr and pd are 0 where not covered.
@@ -150,6 +153,8 @@ def mean_link(
                 else:
                     pj = math.nan
                 p += pj * weights[j]
+            if p_noise > 0.0:
+                p = p + p_noise - p * p_noise
             pd[w, n] = p
     return az, ok, snr, pd
 

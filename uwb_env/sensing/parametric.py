@@ -9,7 +9,11 @@ For every transmitter-receiver pair and target in a scan:
 3. detection is the square-law test itself: |sqrt(SNR) + n|^2 > -ln Pfa with n ~ CN(0, 1). Averaged over the RCS
    this has exactly the Pd of ``uwb_env.sensing.pd`` for the Swerling case (tested); the test sees the SNR times
    ``SensingConfig.detection_gain_db`` (the signal path's peak search over neighbouring cells and beams, calibrated
-   by ``scripts/calibrate_chirp.py``; 0 dB by default);
+   by ``scripts/calibrate_chirp.py``; 0 dB by default); a covered target is also detected when a noise peak falls in
+   the signal detector's truth-matching window around its echo, probability 1 - (1 - Pfa)^n for the window's n
+   cells (``SensingConfig.noise_window_cells``; 0 by default), so Pd = 1 - (1 - Pd_echo) (1 - Pfa)^n
+   (``uwb_env.sensing.pd.windowed_detection_probability``, in the sensing and in the sensor model alike); such a
+   detection is measured like the echo (R at the echo's SNR), and the false alarms keep their own density;
 4. a detected target is measured as h(x) + v, v ~ N(0, R(SNR)), R the waveform's CRLB at the scan's true SNR
    (bistatic range; range-rate for chirps; azimuth from the ULA CRLB for array receivers when enabled); walls add
    the excess delay of seed 002 as a positive range bias, which a radar that knows its walls removes
@@ -66,7 +70,12 @@ from uwb_env.scene.layout import SceneLayout
 from uwb_env.scene.truth import Truth
 from uwb_env.sensing.beams import beam_gain, beam_sines
 from uwb_env.sensing.compiled import expected_covariance, mean_link, walk_gain, walk_scale
-from uwb_env.sensing.pd import detection_probability, threshold_from_pfa
+from uwb_env.sensing.pd import (
+    detection_probability,
+    noise_window_probability,
+    threshold_from_pfa,
+    windowed_detection_probability,
+)
 from uwb_env.sensing.protocol import register_sensor
 from uwb_env.sensing.records import Detections, ScanPlan
 from uwb_env.typing import BoolArray, FloatArray, IntArray
@@ -172,7 +181,8 @@ class EpisodeSensing:
     Attributes:
         geometry: the truth-dependent geometry.
         target_rows: ``(W, S, T, R, K, 8 + m)`` every possible target detection in the row layout above.
-        target_hit: ``(W, S, T, R, K)`` the square-law decision |sqrt(SNR) + n|^2 > V_T (False where not covered).
+        target_hit: ``(W, S, T, R, K)`` the square-law decision |sqrt(SNR) + n|^2 > V_T, or a noise peak in the
+            truth-matching window (``SensingConfig.noise_window_cells``) (False where not covered).
         clutter_rows: ``(W, N, 8 + m)`` the false alarms that fall in their pair's gate, sorted by scan then pair.
         clutter_tx, clutter_rx: ``(N,)`` their nodes.
         clutter_start: ``(S + 1,)`` offsets of each scan's false alarms.
@@ -262,6 +272,9 @@ class ParametricSensor:
         gain_db = [cfg.sensing.detection_gain_db + getattr(w, "detection_gain_db", 0.0) for w in cfg.waveforms]
         self._pd_gain = 10.0 ** (np.array(gain_db, dtype=float) / 10.0)
         self._any_pd_gain = bool(np.any(self._pd_gain != 1.0))
+        # A noise peak in the truth-matching window also detects the target (SensingConfig.noise_window_cells).
+        self._window_cells = float(cfg.sensing.noise_window_cells)
+        self._p_noise = noise_window_probability(cfg.sensing.false_alarm_probability, self._window_cells)
         self.detection_gain = self._pd_gain[:, None, None, None] / (
             1.0 + kappa * self.direct_path_snr[..., None] * self._residue_nodes
         )
@@ -738,6 +751,9 @@ class ParametricSensor:
             scnr = scnr * gain
             snr_all = snr_all * gain
         target_hit = np.abs(np.sqrt(scnr) + offset[None]) > level[None]
+        if self._p_noise > 0.0:  # or a noise peak in the echo's window: drawn after the stream's other draws
+            window = rngs.noise.random((S, T, R, K)) < self._p_noise
+            target_hit |= (geom.covered & self.pair_mask[None, :, :, None] & window)[None]
         if self._all_unit_chol:  # every waveform in one batch (per-row waveform index)
             n_t = e_t.shape[0]
             rows = np.tile(template.reshape(-1, col["n"]), (W, 1))
@@ -1115,15 +1131,13 @@ class ParametricSensor:
             weights,
             sens.false_alarm_probability,
             int(swerling),
+            self._p_noise,
         )
         if swerling not in (1, 3):  # no compiled form: the numpy Pd on the compiled SNR
             scnr = snr[..., None] * gain[:, None, :]
-            pd = np.where(
-                ok,
-                detection_probability(scnr.reshape(-1), sens.false_alarm_probability, swerling).reshape(scnr.shape)
-                @ weights,
-                0.0,
-            )
+            pfa = sens.false_alarm_probability
+            pd_echo = detection_probability(scnr.reshape(-1), pfa, swerling).reshape(scnr.shape) @ weights
+            pd = np.where(ok, windowed_detection_probability(pd_echo, pfa, self._window_cells), 0.0)
         return az, ok, snr, pd
 
     def _link_args(
@@ -1187,7 +1201,7 @@ class ParametricSensor:
             pd = detection_probability(scnr.reshape(-1), pfa, swerling).reshape(scnr.shape) @ self._residue_weights
         else:
             pd = detection_probability(snr * self._pd_gain[waveforms][:, None], pfa, swerling)
-        pd = np.where(ok, pd, 0.0)
+        pd = np.where(ok, windowed_detection_probability(pd, pfa, self._window_cells), 0.0)
         return az[0], ok, snr, pd
 
     def detection_probability_at(
@@ -1241,7 +1255,7 @@ class ParametricSensor:
             gain, weights = self._link_args(tx, rx, waveforms)[2:]  # (W, J), (J,)
             scnr = snr[..., None] * gain[:, None, :]  # (W, N, J)
             pd_j = detection_probability(scnr.reshape(-1), pfa, swerling).reshape(scnr.shape)
-            pd = np.where(ok, pd_j @ weights, 0.0)
+            pd = np.where(ok, windowed_detection_probability(pd_j @ weights, pfa, self._window_cells), 0.0)
         if not self._all_unit_chol:
             R = self._expected_covariance_reference(rx, az, ok, snr, waveforms)
             return pd, self._walk_scaled(R, waveforms, walk)

@@ -9,6 +9,13 @@ false-alarm probability Pfa is V_T = -ln Pfa. Closed forms (single look, scan-to
   Derivation: averaging E[e^{-t y} | s] = exp(-t s / (1 + t)) / (1 + t) over s ~ Gamma(2, SNR/2) gives
   (1 + t) / (1 + a t)^2, a = 1 + SNR/2, a mixture of Exp(a) (weight 1/a) and Gamma(2, a) (weight (a-1)/a),
   whose survival function at V_T is the line above.
+
+A peak detector with a truth-matching window (``noise_window_probability``, ``windowed_detection_probability``):
+the signal path counts a target as detected when a peak lies within the window around its echo, and a noise peak
+there counts as well. With n independent cells at the per-cell Pfa in the window, the target is missed only when
+both the echo's own test and every noise cell stay below the threshold:
+
+    P = 1 - (1 - Pd_echo(SNR)) (1 - Pfa)^n,                P -> 1 - (1 - Pfa)^n  as SNR -> 0.
 """
 
 from __future__ import annotations
@@ -43,6 +50,23 @@ def pd_swerling3(snr: FloatArray, pfa: float) -> FloatArray:
 
 
 _PD = {0: pd_swerling0, 1: pd_swerling1, 3: pd_swerling3}
+
+
+def noise_window_probability(pfa: float, cells: float) -> float:
+    """P(a noise peak in the truth-matching window) = 1 - (1 - Pfa)^n for ``cells`` = n (0: none)."""
+    if cells < 0.0:
+        raise ValueError(f"cells = {cells!r}: must be >= 0")
+    return float(-np.expm1(cells * np.log1p(-pfa))) if cells > 0.0 else 0.0
+
+
+def windowed_detection_probability(pd_echo: FloatArray, pfa: float, cells: float) -> FloatArray:
+    """P = 1 - (1 - Pd_echo) (1 - Pfa)^n (module docstring): the echo's test OR a noise peak among n cells.
+
+    ``cells`` = 0 returns ``pd_echo`` unchanged (bit for bit).
+    """
+    p_noise = noise_window_probability(pfa, cells)
+    pd_echo = np.asarray(pd_echo, dtype=float)
+    return pd_echo + p_noise - pd_echo * p_noise if p_noise > 0.0 else pd_echo
 
 
 def detection_probability(snr: FloatArray, pfa: float, swerling: int) -> FloatArray:
