@@ -78,6 +78,10 @@ def _play(env_id: str, mode: AutoresetMode, extra: int, kwargs: dict, masked_res
                 assert x.dtype == y.dtype and np.array_equal(x, y), t
             _assert_infos_equal(r1[4], r2[4])
             ended += r1[3]
+            for e in range(N):  # the trackers' whole state, ids included (what campaigns score)
+                mine, theirs = batched.envs[e].sim.tracker.tracks, sync.envs[e].unwrapped.sim.tracker.tracks
+                for field in ("ids", "confirmed", "age", "born", "existence", "mu", "active", "x", "P"):
+                    assert np.array_equal(getattr(mine, field), getattr(theirs, field)), (t, e, field)
         assert (ended > 0).all(), "every env must finish at least one episode"
     finally:
         batched.close()
