@@ -160,11 +160,15 @@ def mean_link(
 
 
 @_jit
-def expected_covariance(az, ok, snr, unit_cov, doa, boresight, n_elements, spacing, wavelengths):  # pragma: no cover
+def expected_covariance(
+    az, ok, snr, snr_cap, unit_cov, doa, boresight, n_elements, spacing, wavelengths
+):  # pragma: no cover - compiled  # fmt: skip
     """The lookahead's measurement covariances ``(W, N, m, m)`` at the mean SNR (``expected_measurements``).
 
     R = R(SNR = 1) / SNR for the CRLB waveform models, ``unit_cov`` ``(W, m0, m0)``, at ``snr`` ``(W, N)`` where
-    covered (``ok`` ``(N,)``) and above 1, else at SNR = 1; with ``doa`` the array's azimuth CRLB
+    covered (``ok`` ``(N,)``) and above 1, else at SNR = 1, then capped at the waveform's accuracy SNR ``snr_cap``
+    ``(W,)`` (``parametric.accuracy_snr_caps``: the range-variance floor; in this order, so a floor above the unit-SNR
+    variance holds at every SNR, as for the sensed detections); with ``doa`` the array's azimuth CRLB
     (``parametric.azimuth_variance``, element SNR = SNR / L, off-boresight angle wrapped to [-pi, pi)) is appended
     as a last row and column, m = m0 + 1. ``wavelengths`` ``(W,)`` [m].
     """
@@ -175,7 +179,7 @@ def expected_covariance(az, ok, snr, unit_cov, doa, boresight, n_elements, spaci
     L = n_elements
     for w in range(W):
         for n in range(N):
-            s = snr[w, n] if ok[n] and snr[w, n] > 1.0 else 1.0
+            s = min(snr[w, n] if ok[n] and snr[w, n] > 1.0 else 1.0, snr_cap[w])
             inv = 1.0 / s
             for i in range(m0):
                 for j in range(m0):

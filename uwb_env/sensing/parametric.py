@@ -1263,7 +1263,8 @@ class ParametricSensor:
         R = expected_covariance(
             az,
             ok,
-            np.minimum(snr, self._snr_cap[waveforms][:, None]),
+            snr,
+            self._snr_cap[waveforms],
             self._unit_cov_stack[waveforms],
             bool(self._doa_rx[rx]),
             float(self._boresight[rx]),
