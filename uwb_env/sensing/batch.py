@@ -12,7 +12,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from uwb_env.sensing.parametric import _KEY_SPAN, EpisodeSensing, ParametricSensor, _append_block, _columns
+from uwb_env.sensing.parametric import _KEY_SPAN, EpisodeSensing, ParametricSensor, _columns
 from uwb_env.sensing.records import Detections, ScanPlan
 from uwb_env.typing import FloatArray, IntArray
 
@@ -66,32 +66,9 @@ def sense_many(
     bounds = np.searchsorted(keys, (np.arange(len(batch))[:, None] * n_pairs + sensor._pair_index[None]).ravel())
     bounds = np.append(bounds, rows.shape[0]).tolist()
     origin = rows[:, col["origin"]].astype(np.int64)
+    n_tx = sensor.n_tx
     for i, (j, w0) in enumerate(zip(batch, waveform, strict=True)):
-        active = plans[j].active_rx
-        dets = []
-        for p, (t, r) in enumerate(sensor._pair_list):  # the formed pairs: a small fixed set
-            if not active[r]:
-                continue
-            lo, hi = bounds[i * n_pairs + p], bounds[i * n_pairs + p + 1]
-            if sensor._doa_rx[r]:
-                z, R = rows[lo:hi, 1 : 2 + m], _append_block(cov[lo:hi], rows[lo:hi, col["az_var"]])
-            else:
-                z, R = rows[lo:hi, 1 : 1 + m], cov[lo:hi]
-            dets.append(
-                Detections(
-                    tx=t,
-                    rx=r,
-                    waveform=w0,
-                    time_s=float(times_s[j]),
-                    z=z,
-                    R=R,
-                    snr=snr[lo:hi],
-                    origin=origin[lo:hi],
-                    measurement_names=sensor._names[r],
-                    clutter_intensity=rows[lo:hi, col["rho"]],
-                    expected_false_alarms=sensor._expected_false[p],
-                    range_rate_period_mps=float(sensor.range_rate_period[w0]),
-                )
-            )
-        out[j] = tuple(dets)
+        pair_bounds = bounds[i * n_pairs : (i + 1) * n_pairs + 1]
+        out[j] = sensor.pair_records(rows, cov, snr, origin, pair_bounds, plans[j].active_rx, [w0] * n_tx,
+                                     float(times_s[j]))  # fmt: skip
     return out  # type: ignore[return-value]

@@ -1001,6 +1001,26 @@ class ParametricSensor:
             cov = cov * d[:, :, None] * d[:, None, :]
         bounds = [*np.searchsorted(rows[:, 0], self._pair_index).tolist(), rows.shape[0]]
         origin = rows[:, col["origin"]].astype(np.int64)
+        return self.pair_records(rows, cov, snr, origin, bounds, active, waveform_of_tx, time_s)
+
+    def pair_records(
+        self,
+        rows: FloatArray,
+        cov: FloatArray,
+        snr: FloatArray,
+        origin: IntArray,
+        bounds: list[int],
+        active: BoolArray,
+        waveform_of_tx: list[int],
+        time_s: float,
+    ) -> tuple[Detections, ...]:
+        """One scan's ``Detections`` per active formed pair from its sorted ``rows`` (:meth:`sense`'s last step).
+
+        Pair p's rows are ``bounds[p]:bounds[p + 1]`` of rows, cov, snr and origin (views, not copies); the array
+        receivers' azimuth variance is appended to their covariances. Shared with ``sensing.batch.sense_many``.
+        """
+        m = self.library.measurement_dim
+        col = _columns(m)
         out = []
         for p, (t, r) in enumerate(self._pair_list):  # the formed pairs: a small fixed set
             if not active[r]:
