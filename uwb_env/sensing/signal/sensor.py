@@ -792,7 +792,16 @@ class SignalSensor(ParametricModelHooks):
             dtype=np.int64,
         )
         peak = np.array([float(tr.peak[u].mean()) for u in used])
-        density = sig.false_position_density_per_m2
+        return self._positions(z, R, peak, origin, plan, time_s)
+
+    def _positions(
+        self, z: FloatArray, R: FloatArray, snr: FloatArray, origin: IntArray, plan: ScanPlan, time_s: float
+    ) -> Detections:
+        """The network's record of fused 2-D positions ``z (n, 2)``, covariances ``R (n, 2, 2)`` (``rx = -1``).
+
+        Clutter intensity ``false_position_density_per_m2`` over the surveillance area.
+        """
+        density = self.sig.false_position_density_per_m2
         n = z.shape[0]
         return Detections(
             tx=0,
@@ -801,7 +810,7 @@ class SignalSensor(ParametricModelHooks):
             time_s=time_s,
             z=z,
             R=R,
-            snr=peak,
+            snr=snr,
             origin=origin,
             measurement_names=_POSITION_NAMES,
             clutter_intensity=np.full(n, density),
@@ -885,18 +894,4 @@ class SignalSensor(ParametricModelHooks):
                 R[sel] = couple_covariance(
                     p[sel], self.layout.tx_pos[t], rx, self.range_std_m**2, sig.couple_common_std_m**2
                 )
-        density = sig.false_position_density_per_m2
-        n = p.shape[0]
-        return Detections(
-            tx=0,
-            rx=-1,
-            waveform=int(plan.waveform[0]),
-            time_s=time_s,
-            z=p,
-            R=R,
-            snr=np.zeros(n),
-            origin=origin,
-            measurement_names=_POSITION_NAMES,
-            clutter_intensity=np.full(n, density),
-            expected_false_alarms=density * self._area_m2,
-        )
+        return self._positions(p, R, np.zeros(p.shape[0]), origin, plan, time_s)
