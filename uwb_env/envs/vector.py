@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
-from gymnasium.vector.utils import batch_space, concatenate, create_empty_array
+from gymnasium.vector.utils import batch_space, create_empty_array
 
 from uwb_env.envs.outputs import observations, one_env, rewards_and_infos, scan_summaries
 from uwb_env.envs.scheduling import OBS_BOUND, UWBSchedulingEnv, _scaled_cost
@@ -128,13 +128,12 @@ class UWBVectorEnv(VectorEnv):
         else:
             raise ValueError(f"seed={seed!r}: must be None, an int or a list of {self.num_envs} ints / None")
         infos: dict[str, Any] = {}
-        obs = list(self._unbatched())
         for e in np.flatnonzero(mask).tolist():
-            obs[e], info = self.envs[e].reset(seed=seeds[e])
+            obs, info = self.envs[e].reset(seed=seeds[e])
+            self._set_rows(e, obs)
             infos = self._add_info(infos, info, e)
         self._autoreset[mask] = False
         self._started = True
-        self._store(obs)
         return self._copy(), infos
 
     def step(self, actions: Any) -> tuple[Any, FloatArray, BoolArray, BoolArray, dict[str, Any]]:
@@ -147,7 +146,6 @@ class UWBVectorEnv(VectorEnv):
         terminated = np.zeros(n, bool)
         truncated = np.zeros(n, bool)
         infos: dict[str, Any] = {}
-        obs = list(self._unbatched())
         resetting = self._autoreset.copy() if self.autoreset_mode == AutoresetMode.NEXT_STEP else np.zeros(n, bool)
         if self.autoreset_mode == AutoresetMode.DISABLED and self._autoreset.any():
             raise RuntimeError(
@@ -158,22 +156,22 @@ class UWBVectorEnv(VectorEnv):
         self._scan(stepping, acts[stepping])
         env_infos: list[dict[str, Any] | None] = [None] * n
         for e in np.flatnonzero(resetting).tolist():
-            obs[e], env_infos[e] = self.envs[e].reset()
+            obs, env_infos[e] = self.envs[e].reset()
+            self._set_rows(e, obs)
         info_arrays = None
         if stepping.size:
             rewards[stepping], info_arrays, batch_obs = self._outputs(stepping, acts[stepping])
             truncated[stepping] = [self.envs[e].sim.done for e in stepping.tolist()]
-            for j, e in enumerate(stepping.tolist()):
-                obs[e] = {k: v[j] for k, v in batch_obs.items()} if isinstance(batch_obs, dict) else batch_obs[j]
+            self._set_rows(stepping, batch_obs)
         row = {e: j for j, e in enumerate(stepping.tolist())}
         if self.autoreset_mode == AutoresetMode.SAME_STEP:
             for e in np.flatnonzero(truncated | terminated).tolist():
                 final = one_env(info_arrays, row[e])
-                infos = self._add_info(infos, {"final_obs": obs[e], "final_info": final}, e)
-                obs[e], env_infos[e] = self.envs[e].reset()
+                infos = self._add_info(infos, {"final_obs": _deep(self._row(e)), "final_info": final}, e)
+                obs, env_infos[e] = self.envs[e].reset()
+                self._set_rows(e, obs)
         infos.update(_stacked_infos(env_infos, info_arrays, row))
         self._autoreset = terminated | truncated
-        self._store(obs)
         return self._copy(), rewards, terminated, truncated, infos
 
     def action_masks(self) -> BoolArray:
@@ -317,14 +315,19 @@ class UWBVectorEnv(VectorEnv):
         obs = observations(summ[-1], actions, len(self.plans), extra, first.obs_kind, OBS_BOUND, ks)
         return rewards, info, obs
 
-    def _unbatched(self) -> list[Any]:
-        """The current observations, one per environment."""
-        from gymnasium.vector.utils import iterate
+    def _set_rows(self, rows: int | IntArray, obs: Any) -> None:
+        """Write observations into the batched ones: one env's (``rows`` an int) or a batch's (``rows`` ``(E,)``)."""
+        if isinstance(self._observations, dict):
+            for k, v in obs.items():
+                self._observations[k][rows] = v
+        else:
+            self._observations[rows] = obs
 
-        return list(iterate(self.observation_space, self._observations))
-
-    def _store(self, obs: list[Any]) -> None:
-        self._observations = concatenate(self.single_observation_space, obs, self._observations)
+    def _row(self, e: int) -> Any:
+        """Environment e's current observation (a view), in the single env's form."""
+        if isinstance(self._observations, dict):
+            return {k: v[e] for k, v in self._observations.items()}
+        return self._observations[e]
 
     def _copy(self) -> Any:
         return _deep(self._observations)

@@ -331,7 +331,6 @@ class BatchedTracker:
         for e, tr in enumerate(trs):
             s = slice(start[e], start[e + 1])
             tr.tracks = TrackSet(*(fields[f][s] for f in _FIELDS))
-            tr._pd_cache = {}
         return start, fields
 
     def _detection_probabilities(
