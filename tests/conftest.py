@@ -75,3 +75,13 @@ def tiny_config(
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(12345)
+
+
+@pytest.fixture(scope="module")
+def local_ray():
+    """One local 2-CPU Ray for a module's runs (the RLlib engine joins a Ray it finds and leaves it running)."""
+    import ray  # the optional extra: only the modules that use the fixture need it
+
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, ignore_reinit_error=True)
+    yield
+    ray.shutdown()

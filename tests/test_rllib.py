@@ -17,7 +17,6 @@ import pytest
 
 pytest.importorskip("ray.rllib")
 
-import ray
 
 import uwb_env  # noqa: F401
 from uwb_env.agents.cli import train_main
@@ -33,14 +32,6 @@ from uwb_env.envs import ENV_IDS
 TINY = {"train_batch_size_per_learner": 128, "minibatch_size": 64, "num_epochs": 1, "fcnet_hiddens": [32, 32],
         "eval_episodes": 1}  # fmt: skip
 MASKED_ID, MASKED_KWARGS = "uwb_env/IndoorSubsetWarmup-v1", {"out_of_service_rx": ["rx1"]}
-
-
-@pytest.fixture(scope="module")
-def local_ray():
-    """One local 2-CPU Ray for the module's runs (the engine joins a Ray it finds and leaves it running)."""
-    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, ignore_reinit_error=True)
-    yield
-    ray.shutdown()
 
 
 def _rows(path: Path) -> list[dict[str, str]]:

@@ -15,7 +15,8 @@ import yaml
 
 pytest.importorskip("ray.rllib")
 
-import ray
+
+from test_rllib import MASKED_ID, MASKED_KWARGS, TINY  # the RLlib tests' tiny run and masked env
 
 import uwb_env  # noqa: F401
 from uwb_env.agents.rl.rllib_engine import (
@@ -28,17 +29,6 @@ from uwb_env.agents.rl.rllib_engine import (
     rllib_checkpoints,
     train_rllib,
 )
-
-TINY = {"train_batch_size_per_learner": 128, "minibatch_size": 64, "num_epochs": 1, "fcnet_hiddens": [32, 32],
-        "eval_episodes": 1}  # fmt: skip
-MASKED_ID, MASKED_KWARGS = "uwb_env/IndoorSubsetWarmup-v1", {"out_of_service_rx": ["rx1"]}
-
-
-@pytest.fixture(scope="module")
-def local_ray():
-    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, ignore_reinit_error=True)
-    yield
-    ray.shutdown()
 
 
 def test_the_masked_vector_env_equals_the_masked_env_env_by_env():
