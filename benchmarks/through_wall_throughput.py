@@ -14,38 +14,14 @@ from __future__ import annotations
 
 import argparse
 import statistics
-import time
 
 import yaml
+from signal_throughput import run  # the same timing loop as indoor-rsn's (benchmarks/ is the script's path)
 
 from uwb_env import scenarios
-from uwb_env.rng import RngStreams
-from uwb_env.scene import sample_truth
-from uwb_env.sensing import ScanPlan
 from uwb_env.sensing.signal import SignalSensor
 
 FLOOR_SCANS_PER_S = 200.0
-
-
-def run(sensor: SignalSensor, n_scans: int, seed0: int) -> tuple[float, float, int]:
-    """Play episodes until ``n_scans`` scans; returns (total time, sense time, scans)."""
-    cfg = sensor.cfg
-    plan = ScanPlan.all_listening(0, sensor.n_tx, sensor.n_rx)
-    t_total = t_sense = 0.0
-    done, ep = 0, seed0
-    while done < n_scans:
-        t0 = time.perf_counter()
-        rngs = RngStreams.from_seed(ep)
-        episode = sensor.new_episode(sample_truth(cfg, rngs.truth, sensor.layout), rngs)
-        t1 = time.perf_counter()
-        for k in range(1, cfg.n_scans + 1):  # scans of the episode
-            sensor.sense(episode, k, plan)
-        t2 = time.perf_counter()
-        t_total += t2 - t0
-        t_sense += t2 - t1
-        done += cfg.n_scans
-        ep += 1
-    return t_total, t_sense, done
 
 
 def main() -> None:
