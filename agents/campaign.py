@@ -40,7 +40,10 @@ scan; ``true_confirmed`` of them assigned to a target; ``false`` confirmed track
 ``trace_m2`` mean over scans with a confirmed track of the mean position-covariance trace (the reward's term; a
 confirmed false track coasting through a shadow, where Pd ~ 0 and only the survival probability lowers its
 existence, grows its covariance to hundreds of m^2 and dominates it in a few runs); ``target_trace_m2`` the same
-over the confirmed tracks assigned to targets only;
+over the confirmed tracks assigned to targets only; ``target_cost_m2`` mean over scans with an alive target of the
+per-target cost: the covered targets' track traces and, for each missed target, the env's ``missed_target_penalty_m2``
+(the reward's own price of a miss), divided by the alive targets. ``target_trace_m2`` is conditional on holding a
+track, so a scheme that drops the hard targets lowers it; ``target_cost_m2`` charges the drop;
 ``energy_j`` transmitted energy of the run; ``return`` the sum of rewards.
 """
 
@@ -87,11 +90,12 @@ METRICS = {
     "false": "false tracks / scan",
     "trace_m2": "mean covariance trace [m^2]",
     "target_trace_m2": "covariance trace on targets [m^2]",
+    "target_cost_m2": "trace on targets, missed at the penalty [m^2]",
     "energy_j": "energy / run [J]",
     "return": "return",
 }
-RECORD = ("scan", "alive", "confirmed", "true_confirmed", "false", "missed", "sq_error_sum", "ospa_m", "trace_m2",
-          "target_trace_m2", "energy_j", "reward", "action")  # fmt: skip
+RECORD = ("scan", "alive", "confirmed", "true_confirmed", "false", "missed", "missed_penalty", "sq_error_sum", "ospa_m",
+          "trace_m2", "target_trace_m2", "energy_j", "reward", "action")  # fmt: skip
 
 
 # ------------------------------------------------------------------------------------------------- definition
@@ -200,6 +204,7 @@ def play(env: UWBSchedulingEnv, scheduler: Any, seed: int) -> tuple[np.ndarray, 
                 conf - info["false_tracks"],
                 info["false_tracks"],
                 info["missed_targets"],
+                info["missed_penalty"],
                 float(e @ e),
                 info["ospa_m"],
                 info["covariance_trace"] if conf else math.nan,

@@ -71,6 +71,18 @@ def finite_mean(values: np.ndarray) -> float:
     return float(v.mean()) if v.size else math.nan
 
 
+def target_cost(rec: dict[str, np.ndarray]) -> float:
+    """Mean over scans with an alive target of (sum of covered targets' traces + missed penalties) / alive [m^2].
+
+    ``true_confirmed`` tracks cover as many targets one-to-one (``metrics.cover_summary``), so a scan's covered
+    targets' summed trace is ``target_trace_m2 * true_confirmed`` (0 when nan: no covered target).
+    """
+    alive = rec["alive"]
+    held = np.where(rec["true_confirmed"] > 0, rec["target_trace_m2"], 0.0) * rec["true_confirmed"]
+    on = alive > 0
+    return float(np.mean((held[on] + rec["missed_penalty"][on]) / alive[on])) if on.any() else math.nan
+
+
 def run_metrics(rec: dict[str, np.ndarray]) -> dict[str, float]:
     """The per-run metrics of the module docstring from one run's record."""
     matched = rec["true_confirmed"].sum()
@@ -82,6 +94,7 @@ def run_metrics(rec: dict[str, np.ndarray]) -> dict[str, float]:
         "false": float(rec["false"].mean()),
         "trace_m2": finite_mean(rec["trace_m2"]),  # scans with a confirmed track
         "target_trace_m2": finite_mean(rec["target_trace_m2"]),  # scans with a track on a target
+        "target_cost_m2": target_cost(rec),
         "energy_j": float(rec["energy_j"].sum()),
         "return": float(rec["reward"].sum()),
     }

@@ -38,8 +38,13 @@ def test_run_metrics_by_hand():
         "target_trace_m2": np.array([np.nan, 2.0, 1.0]),
         "energy_j": np.array([1e-3, 1e-3, 2e-3]),
         "reward": np.array([-100.0, -3.0, -1.0]),
+        "alive": np.array([2.0, 2.0, 2.0]),
+        "missed": np.array([2.0, 1.0, 0.0]),
+        "missed_penalty": np.array([200.0, 100.0, 0.0]),  # 100 m^2 per missed target
     }
     m = run_metrics(rec)
+    # per scan (covered traces + penalties) / alive: (0 + 200) / 2, (2 + 100) / 2, (2 x 1 + 0) / 2
+    assert m["target_cost_m2"] == pytest.approx((100.0 + 51.0 + 1.0) / 3)
     assert m["rmse_m"] == pytest.approx(0.5)
     assert m["ospa_m"] == pytest.approx(4.0)
     assert m["confirmed"] == pytest.approx(4 / 3) and m["true_confirmed"] == pytest.approx(1.0)
@@ -76,7 +81,7 @@ def test_resumed_campaign_gives_the_same_summary(tmp_path):
     a = np.loadtxt(run_path(whole, "myopic", 9), delimiter=",", skiprows=1)
     b = np.loadtxt(run_path(whole, "round-robin@open-loop", 9), delimiter=",", skiprows=1)
     np.testing.assert_array_equal(a[:, 1], b[:, 1])  # alive targets per scan
-    assert a.shape == (12, 13 + 4) and b.shape == (12, 13 + 1)  # VS-IMM's 4 models, the open loop's one
+    assert a.shape == (12, 14 + 4) and b.shape == (12, 14 + 1)  # VS-IMM's 4 models, the open loop's one
 
 
 def test_a_changed_definition_does_not_resume(tmp_path):
