@@ -585,9 +585,21 @@ class ChirpSignalConfig:
     Clutter motion: every static scatterer path has a random phase per scan (seed 003 eq. 2) and a diffuse part of
     ``clutter_diffuse_fraction`` of its power (wind in the foliage) with a Gaussian Doppler spectrum of standard
     deviation ``clutter_doppler_spread_hz`` within the dwell. Detection: per-cell threshold for
-    ``SensingConfig.false_alarm_probability``, at most ``max_peaks`` peaks per beam image; ``threshold`` ``rice``
-    models every cell as a static return plus noise, ``clutter_map`` also adapts to the fluctuation measured over the
-    J background images (``sensing.signal.chirp_sensor.clutter_map_threshold``).
+    ``SensingConfig.false_alarm_probability``, at most ``max_peaks`` peaks per beam image of the library's narrowest
+    bandwidth; ``threshold`` ``rice`` models every cell as a static return plus noise, ``clutter_map`` also adapts to
+    the fluctuation measured over the J background images (``sensing.signal.chirp_sensor.clutter_map_threshold``).
+
+    The peak cap per image cell (``scale_max_peaks``, default True): at a fixed per-cell Pfa a beam image holds noise
+    peaks in proportion to its cells, and a waveform of k times the bandwidth has k times the delay rows (the same
+    Doppler columns for the same pulse count). With one cap for every image, a 160 MHz image (~28 noise peaks above
+    the threshold at Pfa 7e-4) would keep only its ``max_peaks`` strongest ones and drop a weak echo ranked below
+    them: the cap, not the threshold, would decide detection. So ``max_peaks`` is the cap of the smallest image of
+    the library's narrowest bandwidth (the reference) and every other waveform's image gets
+    max(``max_peaks``, round(``max_peaks`` x its cells / the reference's cells)) (``chirp_sensor.peak_caps``; 38 for
+    the 160 MHz chirps of urban-intersection-wideband next to 10 for its 40 MHz ones): the same cap per image cell,
+    so the noise peaks per cell and unit Pfa (the noise window of the parametric Pd) and the false peaks per cell
+    are the same for every bandwidth, and a library of one bandwidth keeps ``max_peaks`` everywhere. False: one cap
+    ``max_peaks`` for every image (the chain before this choice).
     """
 
     background_scans: int = 10
@@ -600,6 +612,7 @@ class ChirpSignalConfig:
     clutter_diffuse_fraction: float = 0.12
     clutter_doppler_spread_hz: float = 4.0
     max_peaks: int = 10
+    scale_max_peaks: bool = True
     threshold: Literal["clutter_map", "rice"] = "clutter_map"
 
     def __post_init__(self) -> None:
@@ -619,6 +632,8 @@ class ChirpSignalConfig:
         _in_range("ChirpSignalConfig", "clutter_diffuse_fraction", self.clutter_diffuse_fraction, 0.0, 1.0)
         _non_negative("ChirpSignalConfig", "clutter_doppler_spread_hz", self.clutter_doppler_spread_hz)
         _int_at_least("ChirpSignalConfig", "max_peaks", self.max_peaks, 1)
+        if not isinstance(self.scale_max_peaks, bool):
+            _fail("ChirpSignalConfig", "scale_max_peaks", self.scale_max_peaks, "a bool")
 
 
 @dataclass(frozen=True, slots=True)

@@ -36,6 +36,12 @@ Choices (the seed leaves them open; each one is shared with the parametric model
   residue then raises the threshold at zero Doppler and masks a target there (the clutter notch) instead of making
   false peaks; ``rice`` models every cell as a constant static return plus noise (``delay_doppler``), which keeps
   the targets at blind speeds visible and lets the residue through as false peaks.
+* Peak cap: at most ``ChirpSignalConfig.max_peaks`` peaks per beam image of the library's narrowest bandwidth, and
+  as many per image cell for the others (:func:`peak_caps`: 38 for a 160 MHz image of 4x the delay rows next to 10
+  for the 40 MHz ones), so that a wide band's noise peaks (~4x as many at the same per-cell Pfa) do not crowd out a
+  weak echo: with one cap of 10 the 160 MHz images kept a third of their noise peaks per cell (0.105 against 0.36
+  per cell and unit Pfa uncapped) and lost echoes ranked below them; with the scaled cap they keep 0.35, the 40 MHz
+  images 0.32 (``scripts/calibrate_chirp.py`` section C).
 * Gate: peaks closer to the direct path than ``blind_zone_excess_m`` or beyond 2 ``max_range_m`` are dropped (the
   parametric coverage); images span the bistatic ranges from the baseline to 2 ``max_range_m``.
 * Clutter map: a detection's ``clutter_intensity`` is the false-peak density of its pair and waveform, uniform in
@@ -263,6 +269,7 @@ class ChirpSignalSensor(ParametricModelHooks):
             for w in self.library.waveforms
         ]
         self._grid_key = [(g.n_fft, g.sample_rate_hz) for g in self.grids]
+        self.max_peaks = peak_caps(self.grids, sc.max_peaks, sc.scale_max_peaks)  # (W,) per beam image
         # each train's matched second moments M_0 (band-limited): the sandwich R of walked peaks (delay_doppler)
         self._matched = [cc.pulse_train_information(g) for g in self.grids]
         self._n_max = max(g.n_fft for g in self.grids)
@@ -532,7 +539,7 @@ class ChirpSignalSensor(ParametricModelHooks):
                     episode.backgrounds[w][q][m],
                     axes,
                     threshold=episode.thresholds[w][q, m],
-                    max_peaks=self.sc.max_peaks,
+                    max_peaks=int(self.max_peaks[w]),
                     matched=self._matched[w],
                 )
                 for m in range(self.n_beams)  # beams: L, a handful
@@ -663,6 +670,22 @@ def _sub_grid(grid: cc.ChirpGrid, pairs: IntArray) -> cc.ChirpGrid:
     if pairs.size == grid.n_pairs and np.array_equal(pairs, np.arange(grid.n_pairs)):
         return grid
     return replace(grid, window_start_s=grid.window_start_s[pairs])
+
+
+def peak_caps(grids: list[cc.ChirpGrid], max_peaks: int, scale: bool = True) -> IntArray:
+    """``(W,)`` the most peaks per beam image of each waveform (``ChirpSignalConfig.scale_max_peaks``).
+
+    ``max_peaks`` holds for the smallest image (delay rows x Doppler columns) of the library's narrowest bandwidth,
+    the reference; every image gets max(``max_peaks``, round(``max_peaks`` x its cells / the reference's cells)):
+    one cap per image cell, so that a wider band's image, with more delay rows and as many more noise peaks at the
+    same per-cell Pfa, is not truncated harder than the reference's. ``scale`` False: ``max_peaks`` for every image.
+    """
+    cells = np.array([g.n_delay * g.n_doppler for g in grids], dtype=float)
+    band = np.array([g.bandwidth_hz for g in grids])
+    if not scale:
+        return np.full(len(grids), max_peaks, dtype=np.int64)
+    ref = float(cells[band == band.min()].min())
+    return np.maximum(max_peaks, np.round(max_peaks * cells / ref)).astype(np.int64)
 
 
 def false_peak_factor(pfa: float) -> float:
