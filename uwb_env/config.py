@@ -271,6 +271,17 @@ class ClutterConfig:
     with Gaussian spread ``discrete_spread_m``, the rest is uniform. Each pair sees an independent realisation,
     thinned to its coverage gate. Range-rates of false detections are uniform in +-``range_rate_max_mps``.
 
+    Per waveform (``reference_bandwidth_hz``): a detector at a fixed per-cell Pfa makes false detections in
+    proportion to its resolution cells, i.e. to the bandwidth (c / B per range cell; the trains' Doppler cells per
+    period are their pulse count, the same for every train of the scenarios). ``density_per_m2`` is then the density
+    of a waveform of bandwidth ``reference_bandwidth_hz`` (seed 003's 2.5e-4 per m^2: its 40 MHz chirps), and a
+    waveform of bandwidth B_w has ``density_per_m2`` x B_w / ``reference_bandwidth_hz``, in its draws and in the
+    clutter map (the detections' ``clutter_intensity`` and ``expected_false_alarms``,
+    ``ParametricSensor.clutter_intensity_at``). The draws keep common random numbers across plans: false alarms are
+    drawn at the library's largest rate and each waveform keeps one with probability rate_w / rate_max (one spare
+    uniform per false alarm), so a narrower waveform's false alarms are a subset of a wider one's. 0 (default): the
+    same density for every waveform and no thinning (the draws as before the field existed).
+
     Chirp trains only: the clutter points also echo as static scatterers of RCS ``scatterer_rcs_m2`` (0: none), whose
     background-subtraction residue (``residue_fraction`` of their power, Doppler spread ``doppler_spread_hz``)
     masks targets at blind speeds (``uwb_env.channel.doppler_notch``).
@@ -283,9 +294,11 @@ class ClutterConfig:
     scatterer_rcs_m2: float = 0.0
     residue_fraction: float = 1.0
     doppler_spread_hz: float = 0.0
+    reference_bandwidth_hz: float = 0.0
 
     def __post_init__(self) -> None:
         _in_range("ClutterConfig", "density_per_m2", self.density_per_m2, 0.0, 1.0)
+        _non_negative("ClutterConfig", "reference_bandwidth_hz", self.reference_bandwidth_hz)
         _in_range("ClutterConfig", "discrete_fraction", self.discrete_fraction, 0.0, 1.0)
         _positive("ClutterConfig", "discrete_spread_m", self.discrete_spread_m)
         _positive("ClutterConfig", "range_rate_max_mps", self.range_rate_max_mps)

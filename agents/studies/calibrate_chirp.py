@@ -219,7 +219,9 @@ def section_false_peaks(seed: int, rng: np.random.Generator, n: int, pfas: tuple
         s = b.signal
         per = {"noise": 0, "static": 0, "other": 0}
         scans = 0
+        by_w = {}
         for w in range(len(s.library)):  # the library
+            n0, t0 = per["noise"], per["noise"] + per["static"] + per["other"]
             for q in range(s.pairs.shape[0]):  # formed pairs
                 for _ in range(n):  # scans: calibration
                     tr = s.controlled_scan(b.episode, w, q, [], [], [], [], rng=rng)
@@ -228,14 +230,26 @@ def section_false_peaks(seed: int, rng: np.random.Generator, n: int, pfas: tuple
                     per["static"] += int((o == -1).sum())
                     per["other"] += int((o >= 0).sum() + (o == -2).sum())
                     scans += 1
+            k = s.pairs.shape[0] * n
+            cells_w = float(s.searched_cells[w].mean() * s.n_beams)
+            by_w[s.library[w].name] = {
+                "noise": (per["noise"] - n0) / k,
+                "total": (per["noise"] + per["static"] + per["other"] - t0) / k,
+                "cells": cells_w,
+                "peak_cap": int(s.max_peaks[w]),
+                "noise_per_cell_pfa": (per["noise"] - n0) / k / (pfa * cells_w),
+                "parametric": float(b.param.expected_clutter[b.param.pair_mask].mean() * b.param.false_alarm_scale[w]),
+            }
+        if pfa == scenario_pfa:
+            out["per_waveform"] = by_w
         out["pfa"].append(pfa)
         out["noise"].append(per["noise"] / scans)
         out["static"].append(per["static"] / scans)
         out["total"].append((per["noise"] + per["static"] + per["other"]) / scans)
         cells = s.searched_cells.mean() * s.n_beams
         out["cells"] = float(cells)
-        if param_expected is None:
-            param_expected = float(b.param.expected_clutter[b.param.pair_mask].mean())
+        if param_expected is None:  # every waveform's own density (ClutterConfig.reference_bandwidth_hz), averaged
+            param_expected = float(np.mean([r["parametric"] for r in by_w.values()]))
     out["parametric_expected"] = param_expected
     out["peaks_per_cell_pfa"] = [t / (p * out["cells"]) for t, p in zip(out["total"], out["pfa"], strict=True)]
     # the noise peaks per image cell and unit Pfa at the scenario's Pfa: rho of the noise window (B)
@@ -510,6 +524,7 @@ def scenario_settings(b: Bench) -> dict:
         "ghost_range_rate_std_mps": sens.ghost_range_rate_std_mps,
         "residue_fraction": cl.residue_fraction,
         "doppler_spread_hz": cl.doppler_spread_hz,
+        "reference_bandwidth_hz": cl.reference_bandwidth_hz,
         "scatterer_rcs_m2": cl.scatterer_rcs_m2,
         "array_beams": sens.array_beams,
         "n_elements": "/".join(sorted({str(r.array.n_elements) for r in b.cfg.receivers if r.array is not None})),
@@ -664,9 +679,22 @@ def report(out: Path, res: dict, command: str, elapsed: float) -> None:
     for i, pfa in enumerate(fp["pfa"]):
         L.append(f"| {pfa:g} | {fp['noise'][i]:.2f} | {fp['static'][i]:.2f} | {fp['total'][i]:.2f} | "
                  f"{fp['peaks_per_cell_pfa'][i]:.3f} |")  # fmt: skip
-    L += ["", f"Searched cells per pair (gate x Doppler x beams): {fp['cells']:.0f}. Parametric expected false alarms "
-          f"per pair and scan (density {fp['density_per_m2']:g} / m^2 over the gate): {fp['parametric_expected']:.2f}.",
+    L += ["", f"Searched cells per pair (gate x Doppler x beams), mean over the library: {fp['cells']:.0f}. Parametric "
+          f"expected false alarms per pair and scan (density {fp['density_per_m2']:g} / m^2 over the gate, x each "
+          f"waveform's B_w / `clutter.reference_bandwidth_hz` = {sc['reference_bandwidth_hz']:g} Hz where set), mean "
+          f"over the library: {fp['parametric_expected']:.2f}. The table pools every waveform of the library.",
           ""]  # fmt: skip
+    pw = fp.get("per_waveform", {})
+    if pw:
+        L += [f"Per waveform at the scenario's Pfa {fp['scenario_pfa']:g} (the chain's peak cap per beam image, "
+              "`ChirpSignalConfig.scale_max_peaks`):", "",
+              "| waveform | peak cap | searched cells (x beams) | noise peaks | total | noise peaks / (Pfa x cells) | "
+              "parametric expected | signal / parametric |", "|---|---|---|---|---|---|---|---|"]  # fmt: skip
+        for name, r in pw.items():
+            ratio = r["total"] / r["parametric"]
+            L.append(f"| {name} | {r['peak_cap']} | {r['cells']:.0f} | {r['noise']:.2f} | {r['total']:.2f} | "
+                     f"{r['noise_per_cell_pfa']:.4f} | {r['parametric']:.2f} | {ratio:.2f} |")  # fmt: skip
+        L.append("")
     L += [
         f"Noise peaks per image cell and unit Pfa at the scenario's Pfa: **{fp['noise_per_cell_pfa']:.4f}** "
         f"(rho of the noise window, section B): n = 3 beams x 8 x 8 image cells x rho = "

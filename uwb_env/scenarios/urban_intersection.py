@@ -127,7 +127,12 @@ def noise_window_cells(chirp: ChirpSignalConfig, n_beams: int, peaks_per_cell_pf
 
         n = L (2 o_r) (2 o_v) rho,         P(noise peak in the window) = 1 - (1 - Pfa)^n.
 
-    n does not depend on the waveform (bandwidth and PRI set the cell, not the cells per window).
+    n does not depend on the waveform (bandwidth and PRI set the cell, not the cells per window), as long as rho does
+    not: the chain caps its peaks per image cell (``ChirpSignalConfig.scale_max_peaks``: 10 per 40 MHz beam image,
+    38 per 160 MHz one with 3.8x the delay rows), so its noise peaks per cell and unit Pfa are 0.32 at 40 MHz and
+    0.35 at 160 MHz (0.36 for both uncapped), n = 62 and 67, and the window's noise probabilities
+    1 - (1 - Pfa)^n differ by 0.003 at Pfa 7e-4: one n serves both bandwidths. (With one cap of 10 for every image,
+    the 160 MHz images kept 0.105 per cell: the cap, not the threshold, decided their detections.)
     """
     rows = chirp.sample_rate_factor * chirp.delay_oversample
     return n_beams * (2.0 * rows) * (2.0 * chirp.doppler_oversample) * peaks_per_cell_pfa
@@ -268,14 +273,20 @@ def urban_intersection_wideband() -> ScenarioConfig:
     vehicle across the 0.25 s dwell, which seed 003's filter does not follow: -2.7 dB at 10 m/s and -7.5 dB at
     20 m/s bistatic range-rate at the 10 ms PRI, -1.4 / -4.7 dB at 7 ms (``uwb_env.waveforms.chirp``). Which
     waveform is best depends on each vehicle's range-rate: a scheduling problem the seed's library does not pose.
-    Not calibrated separately: the 160 MHz waveforms use the 40 MHz calibration (``CALIBRATED``); the range-walk loss
-    itself is checked against the signal chain (tests/unit/test_chirp_chain.py).
+    False alarms per waveform: the seed's clutter density (2.5e-4 per m^2) is that of its 40 MHz chirps, and a
+    detector at the same per-cell Pfa makes 4x the false detections with 4x the resolution cells, so
+    ``clutter.reference_bandwidth_hz`` = 40 MHz: the 160 MHz chirps draw 1e-3 per m^2 and their clutter map is 4x
+    (``uwb_env.config.ClutterConfig``); the signal chain makes 4.1x the 40 MHz false peaks with them (its peaks
+    capped per image cell, ``ChirpSignalConfig.scale_max_peaks``). The 160 MHz waveforms use the 40 MHz calibration
+    (``CALIBRATED``); the range-walk loss itself is checked against the signal chain (tests/unit/test_chirp_chain.py).
     """
     base = urban_intersection()
     wide = tuple(_chirp(1.375, "up", pri_ms, WIDEBAND_HZ) for pri_ms in (10, 7))
+    clutter = dataclasses.replace(base.sensing.clutter, reference_bandwidth_hz=40e6)
     return dataclasses.replace(
         base,
         name="urban-intersection-wideband",
         description=base.description + " Two 160 MHz chirps added (bandwidth against range migration).",
         waveforms=base.waveforms + wide,
+        sensing=dataclasses.replace(base.sensing, clutter=clutter),
     )

@@ -22,14 +22,18 @@ For every transmitter-receiver pair and target in a scan:
    around the clutter scatterers, drawn independently per pair and thinned to the pair's coverage. Their apparent
    SNR is that of noise over the threshold (V_T + Exp(1) - 1), their true range-rate is uniform in
    +-``range_rate_max_mps``, and they are measured through the same waveform as targets (noise of R at their
-   apparent SNR), so no statistic but the likelihood tells a false alarm from a target;
+   apparent SNR), so no statistic but the likelihood tells a false alarm from a target. With
+   ``clutter.reference_bandwidth_hz`` the density is per waveform, x B_w / reference (a detector's false alarms
+   scale with its resolution cells): drawn at the library's largest rate and thinned per waveform with one spare
+   uniform each, so a narrower waveform's false alarms are a subset of a wider one's (:meth:`_draw_clutter`);
 6. every detection carries ``clutter_intensity``, the known clutter map in measurement space at its value (the
    rho_i of PDA / LMIPDA): the pair's density of false alarms in bistatic range -- or, for array receivers that
    measure azimuth, in (range, azimuth), broadened by the direction-finding noise -- precomputed by quadrature
    over the area and the scatterers, x the density of a false alarm's measured range-rate,
    N(0, R_dd + rdot_max^2 / 3) (uniform truth plus measurement noise), or 1 / period for a chirp train whose
    range-rate is measured folded (every measured range-rate, target or not, is folded into the waveform's
-   ambiguity interval lambda / T1: ``fold_range_rate``).
+   ambiguity interval lambda / T1: ``fold_range_rate``); with ``clutter.reference_bandwidth_hz``, x the waveform's
+   factor B_w / reference (item 5).
 
 7. multipath ghosts (``SensingConfig.ghost_rate``, calibrated on the chirp signal path): detections on a covered
    target's paths through a scatterer, beyond its bistatic range (:meth:`ParametricSensor._draw_ghosts`); to the
@@ -186,6 +190,9 @@ class EpisodeSensing:
         clutter_rows: ``(W, N, 8 + m)`` the false alarms that fall in their pair's gate, sorted by scan then pair.
         clutter_tx, clutter_rx: ``(N,)`` their nodes.
         clutter_start: ``(S + 1,)`` offsets of each scan's false alarms.
+        clutter_keep: ``(W, N)`` whether each waveform keeps each row (the per-waveform false-alarm rate,
+            ``ClutterConfig.reference_bandwidth_hz``; multipath ghosts are kept by every waveform), or None: every
+            waveform keeps every row.
     """
 
     geometry: EpisodeGeometry
@@ -195,6 +202,7 @@ class EpisodeSensing:
     clutter_tx: np.ndarray
     clutter_rx: np.ndarray
     clutter_start: np.ndarray
+    clutter_keep: BoolArray | None = None
 
 
 def accuracy_snr_caps(unit_covariances: list[FloatArray | None], min_range_std_m: float) -> FloatArray:
@@ -312,6 +320,15 @@ class ParametricSensor:
         self._tx_index = np.arange(self.n_tx)
         area = (lay.area[1] - lay.area[0]) * (lay.area[3] - lay.area[2])
         self._clutter_total = cfg.sensing.clutter.density_per_m2 * area
+        # false alarms per waveform (ClutterConfig.reference_bandwidth_hz): factor B_w / reference, drawn at the
+        # largest and thinned per waveform where the factors differ
+        self.false_alarm_scale = false_alarm_scale(cfg)  # (W,)
+        self._fa_scaled = bool(np.any(self.false_alarm_scale != 1.0))
+        self._fa_max = float(self.false_alarm_scale.max())
+        self._fa_thin = bool(np.any(self.false_alarm_scale != self._fa_max))
+        self._expected_false_w = [
+            [float(self._clutter_mean[t, r] * f) for t, r in self._pair_list] for f in self.false_alarm_scale.tolist()
+        ]
         self._unit_cov = [w.unit_covariance for w in self.library.waveforms]
         self._snr_cap = accuracy_snr_caps(self._unit_cov, cfg.sensing.min_range_std_m)
         self._geometry_cache: tuple[FloatArray, BoolArray, EpisodeGeometry] | None = None
@@ -642,16 +659,18 @@ class ParametricSensor:
     def _draw_clutter(
         self, n_scans: int, rng: np.random.Generator
     ) -> tuple[np.ndarray, FloatArray, FloatArray, FloatArray]:
-        """Poisson false alarms of every scan and formed pair.
+        """Poisson false alarms of every scan and formed pair, at the library's largest rate.
 
         Returns:
             key ``(N,)`` = scan x P + pair (sorted), x and y ``(N,)`` [m], spare uniforms ``(2, N)`` (for the
-            apparent SNR and the range-rate).
+            apparent SNR and the range-rate), or ``(3, N)`` where waveforms thin the draws (the third: the thinning
+            uniform, ``ClutterConfig.reference_bandwidth_hz``; the same stream as without it up to that row).
         """
         lay, cl = self.layout, self.cfg.sensing.clutter
         x0, x1, y0, y1 = lay.area
-        counts = rng.poisson(self._clutter_total, n_scans * self.pairs.shape[0])
-        u = rng.random((5, int(counts.sum())))
+        rate = self._clutter_total * self._fa_max if self._fa_scaled else self._clutter_total
+        counts = rng.poisson(rate, n_scans * self.pairs.shape[0])
+        u = rng.random((6 if self._fa_thin else 5, int(counts.sum())))
         x = x0 + u[0] * (x1 - x0)
         y = y0 + u[1] * (y1 - y0)
         if cl.discrete_fraction > 0:
@@ -720,6 +739,8 @@ class ParametricSensor:
         c_base[:, col["snr"]] = self.threshold - np.log1p(-u[0, idx]) - 1.0  # V_T + Exp(1) minus the unit noise
         c_base[:, col["origin"]] = -1.0
         c_e = rngs.clutter.standard_normal((n_c, m + 1))
+        # each waveform keeps a false alarm with probability rate_w / rate_max (ClutterConfig.reference_bandwidth_hz)
+        c_keep = u[2, idx][None] < (self.false_alarm_scale / self._fa_max)[:, None] if self._fa_thin else None
         c_az = np.arctan2(dyr[idx], dxr[idx]) if self._any_doa else np.zeros(n_c)
         c_r, c_t = c_r[idx], c_t[idx]
         r_t = np.broadcast_to(np.arange(R)[None, None, :, None], (S, T, R, K)).reshape(-1)
@@ -788,6 +809,8 @@ class ParametricSensor:
             c_e = np.concatenate([c_e, g_e])[order]
             c_az = np.concatenate([c_az, g_az])[order]
             c_t, c_r = np.concatenate([c_t, g_t])[order], np.concatenate([c_r, g_r])[order]
+            if c_keep is not None:  # ghosts: every waveform's
+                c_keep = np.concatenate([c_keep, np.ones((W, g_scan.size), dtype=bool)], axis=1)[:, order]
             n_c = c_base.shape[0]
         clutter_rows = np.empty((W, n_c, col["n"]))
         c_scale = 1.0 / np.sqrt(c_base[:, col["snr"]])  # false alarms' SNR is the same for every waveform
@@ -802,6 +825,7 @@ class ParametricSensor:
             clutter_tx=c_t,
             clutter_rx=c_r,
             clutter_start=np.searchsorted(c_scan, np.arange(S + 1)),
+            clutter_keep=c_keep,
         )
 
     def _draw_ghosts(
@@ -929,7 +953,7 @@ class ParametricSensor:
                 entry = (*entry, self._azimuth_bins(rows[:, col["az"]]))
                 azimuth_cache[key] = entry
             az_bins = entry[2]
-        rows[:, col["rho"]] = self._clutter_intensity(rows, ridge, rdot_var, az_bins, period)
+        rows[:, col["rho"]] = self._clutter_intensity(rows, ridge, rdot_var, az_bins, period, w)
 
     def _wall_compensation(self, z: FloatArray, tx: IntArray, rx: IntArray, pos: FloatArray) -> FloatArray:
         """The known walls' excess delay c tau [m] on the legs to each detection's uncompensated position estimate.
@@ -967,16 +991,21 @@ class ParametricSensor:
         Selects the scan's rows of the waveforms the plan sends, sorts them by (pair, range) and splits per pair.
         """
         all_active, w0, single, waveform_of_tx = self._validate(plan)
+        if self._fa_thin and not single:  # _validate's single is False for sensing.batch's sake (it does not thin)
+            single = len(set(waveform_of_tx)) == 1 and self._unit_chol[w0] is not None
         m = self.library.measurement_dim
         col = _columns(m)
         active = plan.active_rx
         a, b = episode.clutter_start[k], episode.clutter_start[k + 1]
+        keep = None
         if single:
             hit = episode.target_hit[w0, k]
             if not all_active:
                 hit = hit & active[None, :, None]
             target_rows = episode.target_rows[w0, k][hit]
             clutter_rows = episode.clutter_rows[w0, a:b]
+            if episode.clutter_keep is not None:
+                keep = episode.clutter_keep[w0, a:b]
         else:  # each transmitter's echoes come from the waveform it sends
             target_rows = np.concatenate(
                 [
@@ -986,8 +1015,12 @@ class ParametricSensor:
             )
             wf_row = np.asarray(waveform_of_tx)[episode.clutter_tx[a:b]]
             clutter_rows = episode.clutter_rows[wf_row, np.arange(a, b)]
+            if episode.clutter_keep is not None:
+                keep = episode.clutter_keep[wf_row, np.arange(a, b)]
         if not all_active:
-            clutter_rows = clutter_rows[active[episode.clutter_rx[a:b]]]
+            keep = active[episode.clutter_rx[a:b]] if keep is None else keep & active[episode.clutter_rx[a:b]]
+        if keep is not None:
+            clutter_rows = clutter_rows[keep]
         rows = np.concatenate([target_rows, clutter_rows])
         rows = rows.take(np.argsort(rows[:, 0] * _KEY_SPAN + rows[:, 1]), axis=0)  # pair, then range (<< span)
         snr = rows[:, col["snr"]]
@@ -1042,7 +1075,7 @@ class ParametricSensor:
                     origin=origin[lo:hi],
                     measurement_names=self._names[r],
                     clutter_intensity=rows[lo:hi, col["rho"]],
-                    expected_false_alarms=self._expected_false[p],
+                    expected_false_alarms=self._expected_false_w[waveform_of_tx[t]][p],
                     range_rate_period_mps=float(self.range_rate_period[waveform_of_tx[t]]),
                 )
             )
@@ -1059,13 +1092,15 @@ class ParametricSensor:
         rdot_var: FloatArray | None,
         az_bins: np.ndarray | None = None,
         period: FloatArray | float | None = None,
+        waveform: IntArray | int | None = None,
     ) -> FloatArray:
         """``(n,)`` known clutter map at each row's measurement, azimuth factor apart (module docstring, item 6).
 
         Args:
             rows: detections in the sensor's row layout; ridge: R_rd / R_dd; rdot_var: R_dd ``(n,)`` (None for
                 range-only waveforms); period: the range-rate period of the rows' waveforms (scalar or ``(n,)``;
-                inf where unambiguous).
+                inf where unambiguous); waveform: the rows' waveform (scalar or ``(n,)``), for the per-waveform
+                factor of the density (``ClutterConfig.reference_bandwidth_hz``; needed when it is set).
 
         A false alarm's true range-rate is uniform over +-rdot_max; folded into the period its density at f is the
         number of aliases f + k P inside +-rdot_max over 2 rdot_max (``folded_uniform_density``; 1 / P when 2
@@ -1093,6 +1128,8 @@ class ParametricSensor:
             var = rdot_var + self._rdot_var
             gauss = np.exp(-0.5 * rows[:, 2] ** 2 / var) / np.sqrt(2.0 * math.pi * var)
             rho = rho * np.where(np.isfinite(period), folded_uniform_density(rows[:, 2], period, self._rdot_max), gauss)
+        if self._fa_scaled:  # false alarms per waveform: x B_w / reference (ClutterConfig.reference_bandwidth_hz)
+            rho = rho * self.false_alarm_scale[waveform]
         return rho
 
     def _covariances(self, waveform_of_row: np.ndarray, snr: FloatArray) -> FloatArray:
@@ -1108,7 +1145,9 @@ class ParametricSensor:
         """Validate a plan and derive what a scan needs from it, once.
 
         Plans are immutable, so a validated plan is remembered by identity. Returns whether every receiver
-        listens, the first waveform, whether one waveform with a 1/SNR covariance serves all transmitters, and the
+        listens, the first waveform, whether one waveform with a 1/SNR covariance serves all transmitters (always
+        False where waveforms thin the false alarms, ``ClutterConfig.reference_bandwidth_hz``: ``sensing.batch``
+        selects a single waveform's rows without the thinning, so such scans go through :meth:`sense`), and the
         waveform of each transmitter.
         """
         hit = self._valid_plans.get(id(plan))
@@ -1120,7 +1159,7 @@ class ParametricSensor:
         derived = (
             bool(plan.active_rx.all()),
             w0,
-            len(waveforms) == 1 and self._unit_chol[w0] is not None,
+            len(waveforms) == 1 and self._unit_chol[w0] is not None and not self._fa_thin,
             plan.waveform.tolist(),
         )
         if len(self._valid_plans) > 256:
@@ -1345,13 +1384,15 @@ class ParametricSensor:
         Rf = R.reshape(W * N, *R.shape[2:])
         ridge, rdot_var = (Rf[:, 0, 1] / Rf[:, 1, 1], Rf[:, 1, 1]) if m == 2 else (0.0, None)
         period = None  # range-only waveforms (impulses) measure no range-rate
-        if m == 2:  # each waveform's folded range-rate (waveforms: R's W waveforms; default the whole library)
-            w = np.arange(len(self.library)) if waveforms is None else np.asarray(waveforms, dtype=np.int64).ravel()
+        w = np.arange(len(self.library)) if waveforms is None else np.asarray(waveforms, dtype=np.int64).ravel()
+        if m == 2 or self._fa_scaled:  # R's W waveforms (default the whole library)
             if w.size != W:
                 raise ValueError(f"clutter_intensity_at: R has {W} waveforms but waveforms names {w.size}")
+        if m == 2:  # each waveform's folded range-rate
             period = np.repeat(self.range_rate_period[w], N)
             rows[:, 2] = fold_range_rate(rows[:, 2], period)
-        return self._clutter_intensity(rows, ridge, rdot_var, None, period).reshape(W, N)
+        wf = np.repeat(w, N) if self._fa_scaled else None
+        return self._clutter_intensity(rows, ridge, rdot_var, None, period, wf).reshape(W, N)
 
     def measurement_names(self, rx: int) -> tuple[str, ...]:
         """Measurement components of receiver ``rx``'s detections."""
@@ -1370,8 +1411,23 @@ class ParametricSensor:
 
     @property
     def expected_clutter(self) -> FloatArray:
-        """``(T, R)`` expected number of false detections per scan in each pair's gate."""
+        """``(T, R)`` expected number of false detections per scan in each pair's gate, at ``density_per_m2``.
+
+        A waveform's: x ``false_alarm_scale[w]`` (``ClutterConfig.reference_bandwidth_hz``).
+        """
         return self._clutter_mean
+
+
+def false_alarm_scale(cfg: ScenarioConfig) -> FloatArray:
+    """``(W,)`` each waveform's false-alarm density over ``ClutterConfig.density_per_m2``: B_w / reference bandwidth.
+
+    A detector at a fixed per-cell Pfa makes false detections in proportion to its resolution cells, c / B_w each in
+    range; ``reference_bandwidth_hz`` 0 (default): 1 for every waveform.
+    """
+    ref = cfg.sensing.clutter.reference_bandwidth_hz
+    if ref <= 0.0:
+        return np.ones(len(cfg.waveforms))
+    return np.array([w.bandwidth_hz / ref for w in cfg.waveforms], dtype=float)
 
 
 _SQRT_HALF = math.sqrt(0.5)
