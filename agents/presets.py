@@ -30,7 +30,7 @@ PRESETS: dict[str, dict[str, Any]] = {
         ),
     },
     "wideband": {
-        "env": "uwb_env/UrbanWideband-v1",
+        "env": "uwb_env/UrbanWideband-v2",
         "schemes": ["myopic-pd", "myopic", "lookahead-3", "round-robin", "random"] + [f"fixed-{w}" for w in range(8)],
         "baseline": "myopic-pd",
         "reference": {},

@@ -4,7 +4,7 @@ from uwb_env.envs.scheduling import ACTION_KINDS, UWBSchedulingEnv, enumerate_pl
 
 ENV_IDS = {
     "uwb_env/UrbanWaveform-v3": {"scenario": "urban-intersection", "action_kind": "waveform"},
-    "uwb_env/UrbanWideband-v1": {"scenario": "urban-intersection-wideband", "action_kind": "waveform"},
+    "uwb_env/UrbanWideband-v2": {"scenario": "urban-intersection-wideband", "action_kind": "waveform"},
     "uwb_env/IndoorSensorSubset-v1": {"scenario": "indoor-rsn", "action_kind": "subset", "subset_size": 3},
     "uwb_env/IndoorJoint-v1": {"scenario": "indoor-rsn", "action_kind": "joint", "subset_size": 3},
     "uwb_env/IndoorSubsetWarmup-v1": {
@@ -17,7 +17,7 @@ ENV_IDS = {
 }
 """Registered ids and their default keyword arguments (``gymnasium.make(id, **kwargs)`` overrides them).
 
-``UrbanWideband-v1`` adds two 160 MHz chirps to seed 003's library (``Discrete(8)``): range accuracy against the
+``UrbanWideband-v2`` adds two 160 MHz chirps to seed 003's library (``Discrete(8)``): range accuracy against the
 range migration of fast vehicles, a trade-off that depends on each track's range-rate
 (``uwb_env.scenarios.urban_intersection``).
 
@@ -30,6 +30,12 @@ averaged per impulse response (``Discrete(3)``); its signal path is the seed's c
 background, advance normalization, CFAR, ToA association, wall compensation, two-ellipse intersection).
 
 Version history:
+    * ``UrbanWideband-v2``: false alarms per waveform (``ClutterConfig.reference_bandwidth_hz`` = 40 MHz: the 160 MHz
+      chirps draw 4x the seed's density, and their clutter map, which the tracker and the lookahead read, is 4x), and
+      the signal chain caps its peaks per image cell (``ChirpSignalConfig.scale_max_peaks``), with which the
+      parametric Pd of the 160 MHz chirps matches the chain (``results/calibration-urban-wideband/report.md``).
+      Dynamics and rewards changed, spaces unchanged, hence the bump; ``UrbanWaveform-v3`` is unchanged (its 40 MHz
+      library keeps every draw).
     * ``UrbanWaveform-v3``, ``UrbanWideband-v1`` (issue 15): the parametric Pd of the chirp scenarios is what the
       signal detector does: the echo's own test OR a noise peak in the truth-matching window,
       1 - (1 - Pd_echo) (1 - Pfa)^n with n = 61.9 cells derived from the window (2 x 2 resolution cells, 4 x 4 image
