@@ -22,16 +22,21 @@ Per run and chain:
   TrackAccounting``, gate ``GATE_M``) is one matched one-to-one to a person in fewer than half of its confirmed
   scans (ghosts, and also a second track on a person or a track held more than ``GATE_M`` off); a person is tracked
   when a confirmed track holds it in at least ``TRACKED_FRACTION`` of the scans; RMSE over the held scans (to the
-  body centre; the seed's ToA is the body's leading edge, so part of it is that bias).
+  body centre; the seed's ToA is the body's leading edge, so part of it is that bias);
+- a ghost track's origin: the kind of most of the localized couples within ``GATE_M`` of the track over its life
+  (tentative scans included): persons' couples (a person's second track, or one left lagging behind the person) or
+  false-alarm couples (e.g. the background subtraction's static residue on the array's axis, which step 6 without
+  its stillness rule completed into ghost tracks: ``toa_association.associate_toas``).
 
 The check (issue 18): with association, 0 ghost tracks in at least 90 % of the runs and both persons tracked.
 
-Run: python scripts/seed001_through_wall.py [--runs 20] [--workers 1] [--set key=value ...] [--out results/seed001]
+Run: python scripts/seed001_through_wall.py [--runs 20] [--seed0 0] [--workers 1] [--set key=value ...]
+[--out results/seed001]
 (``--calibrate RUNS``: only the range-error model's measurement, ``calibrate``)
 Writes summary.md (ours beside the seed's), summary.csv (its numbers per chain), runs.csv (one row per run and chain),
 radargrams.png (Figs. 5e-f / 6a-d-like: background-subtracted, normalized scans and CFAR outputs), toa_association.png
 (Fig. 6e-f-like: the potential simple targets and the associated couples) and positions_tracks.png (Fig. 7-like:
-positions without and with association, tracks vs truth) of run 0.
+positions without and with association, tracks vs truth) of the first run.
 """
 
 from __future__ import annotations
@@ -148,6 +153,7 @@ def run(seed: int, overrides: dict[str, Any], keep: bool = False) -> dict[str, A
         ghosts, hits, positions, tracks = [], [], [], []
         kinds = np.zeros(3, np.int64)  # person couples, cross ghosts, false-alarm couples
         track_dist: dict[int, list[float]] = {}
+        feeds: dict[int, np.ndarray] = {}  # per track: the kinds of the couples within GATE_M of it, all its scans
         while not sim.done:
             res = sim.step(plan)
             k = res.scan_index
@@ -155,9 +161,13 @@ def run(seed: int, overrides: dict[str, Any], keep: bool = False) -> dict[str, A
             z = np.concatenate([d.z for d in res.detections]) if res.detections else np.zeros((0, 2))
             dist = np.linalg.norm(z[:, None] - truth[None], axis=-1)  # (L, K)
             ghosts.append(int(np.sum(dist.min(axis=1, initial=np.inf) > GHOST_M)))
-            kinds += np.bincount(couple_kinds(z, truth, array), minlength=3)
+            kind = couple_kinds(z, truth, array)
+            kinds += np.bincount(kind, minlength=3)
             hits.append((dist < GHOST_M).any(axis=0))
             x, _ = res.tracks.combined()
+            fed = np.linalg.norm(x[:, None, [0, 2]] - z[None], axis=-1) < GATE_M  # (N, L)
+            for tid, row in zip(res.tracks.ids.tolist(), fed, strict=True):  # tracks: a few
+                feeds[tid] = feeds.get(tid, np.zeros(3, np.int64)) + np.bincount(kind[row], minlength=3)
             acc.add(res.tracks.ids, res.tracks.confirmed, x[:, [0, 2]], truth, sim.truth.alive[k])
             c = np.flatnonzero(res.tracks.confirmed)
             live = truth[sim.truth.alive[k]]
@@ -170,6 +180,10 @@ def run(seed: int, overrides: dict[str, Any], keep: bool = False) -> dict[str, A
                 tracks.append((res.tracks.ids[c], x[c][:, [0, 2]]))
         err = np.array(acc.errors)
         coverage = acc.coverage()
+        ghost_ids = [tid for tid, v in track_dist.items() if float(np.median(v)) > GATE_M]
+        # a ghost track's origin: the kind of most of the couples near it (persons': a person's second or lagging
+        # track; false alarms': e.g. a static residue of the background subtraction)
+        origin = np.bincount([int(np.argmax(feeds[tid])) for tid in ghost_ids], minlength=3)
         out[name] = {
             "ghost_positions": int(np.sum(ghosts)),
             "person_couples": int(kinds[0]),
@@ -177,7 +191,10 @@ def run(seed: int, overrides: dict[str, Any], keep: bool = False) -> dict[str, A
             "false_couples": int(kinds[2]),
             "ghosts_per_scan": float(np.mean(ghosts)),
             "hit_rate": np.mean(hits, axis=0),
-            "ghost_tracks": sum(float(np.median(v)) > GATE_M for v in track_dist.values()),
+            "ghost_tracks": len(ghost_ids),
+            "ghost_tracks_person": int(origin[0]),
+            "ghost_tracks_cross": int(origin[1]),
+            "ghost_tracks_false": int(origin[2]),
             "false_tracks": acc.false_tracks(),
             "coverage": coverage,
             "both_tracked": bool(np.all(coverage >= TRACKED_FRACTION)),
@@ -364,8 +381,11 @@ def _window_note(cfg: ScenarioConfig) -> str:
         "ghosts need the two persons' ranges within m of each other across the receivers; there the interval ToA "
         "of each receiver often merges the two traces into one (the seed's 'losses TOA in the case of the target "
         "trace crossing'), so the chain's couples hold fewer cross ghosts than the walks' exact ranges make. Step "
-        "6 repeats a previous scan's couple for an isolated ToA near it, false-alarm couples (a static clutter "
-        "residue seen by both receivers) included: more persons' and more false couples."
+        "6 repeats a previous scan's couple for an isolated ToA near it: more persons' and more false couples. It "
+        "completes a moving target's trace only: an isolated ToA within one sample of its receiver's ToA in the "
+        "previous couple (toa_association.STILL_S) has not moved and is not completed -- the background "
+        "subtraction's residue of a static path (on the array's axis, both receivers' ToAs at 2.57 m), which the "
+        "literal step 6 completed into ghost tracks."
     )
 
 
@@ -390,6 +410,7 @@ def main() -> None:
     """Run the seeded runs of both chains; write summary.md, runs.csv and the figures."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=20)
+    ap.add_argument("--seed0", type=int, default=0, help="the first run's seed (runs seed0 ... seed0 + runs - 1)")
     ap.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1))
     ap.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE", help="scenario overrides (dotted keys)")
     ap.add_argument("--out", default="results/seed001")
@@ -397,6 +418,8 @@ def main() -> None:
     args = ap.parse_args()
     if args.runs < 1:
         raise SystemExit(f"--runs={args.runs}: must be >= 1")
+    if args.seed0 < 0:
+        raise SystemExit(f"--seed0={args.seed0}: must be >= 0")
     overrides = _parse_sets(args.set)
     if args.calibrate:
         cal = calibrate(list(range(args.calibrate)), overrides)
@@ -405,13 +428,14 @@ def main() -> None:
     scenario("association", overrides)  # a bad override fails here, before the pool starts
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    seeds = list(range(args.runs))
+    seeds = list(range(args.seed0, args.seed0 + args.runs))
     with ProcessPoolExecutor(args.workers) as pool:
-        futures = [pool.submit(run, s, overrides, s == 0) for s in seeds]
+        futures = [pool.submit(run, s, overrides, s == seeds[0]) for s in seeds]
         runs = [f.result() for f in futures]
     rows = [
         "chain,seed,cross_ghosts,cross_geometric,false_couples,person_couples,ghost_positions,ghosts_per_scan,"
-        "hit_rate_1,hit_rate_2,ghost_tracks,false_tracks,coverage_1,coverage_2,rmse_m"
+        "hit_rate_1,hit_rate_2,ghost_tracks,ghost_tracks_person,ghost_tracks_cross,ghost_tracks_false,false_tracks,"
+        "coverage_1,coverage_2,rmse_m"
     ]
     for r in runs:
         for name in CHAINS:
@@ -419,7 +443,8 @@ def main() -> None:
             rows.append(
                 f"{name},{r['seed']},{c['cross_ghosts']},{r['cross_geometric']},{c['false_couples']},"
                 f"{c['person_couples']},{c['ghost_positions']},{c['ghosts_per_scan']:.4f},{c['hit_rate'][0]:.4f},"
-                f"{c['hit_rate'][1]:.4f},{c['ghost_tracks']},{c['false_tracks']},{c['coverage'][0]:.4f},"
+                f"{c['hit_rate'][1]:.4f},{c['ghost_tracks']},{c['ghost_tracks_person']},{c['ghost_tracks_cross']},"
+                f"{c['ghost_tracks_false']},{c['false_tracks']},{c['coverage'][0]:.4f},"
                 f"{c['coverage'][1]:.4f},"
                 f"{c['rmse_m']:.4f}"
             )
@@ -439,6 +464,8 @@ def main() -> None:
             "hit": float(np.mean([x["hit_rate"] for x in c])),
             "zero_ghost_tracks": float(np.mean([x["ghost_tracks"] == 0 for x in c])),
             "ghost_tracks": float(np.mean([x["ghost_tracks"] for x in c])),
+            "ghost_tracks_person": float(np.mean([x["ghost_tracks_person"] for x in c])),
+            "ghost_tracks_false": float(np.mean([x["ghost_tracks_false"] for x in c])),
             "false_tracks": float(np.mean([x["false_tracks"] for x in c])),
             "both": float(np.mean([x["both_tracked"] for x in c])),
             "coverage": float(np.mean([x["coverage"] for x in c])),
@@ -457,11 +484,13 @@ def main() -> None:
     holds = a["zero_ghost_tracks"] >= 0.9 and a["both"] >= 0.9
     cmd = (
         f"python scripts/seed001_through_wall.py --runs {args.runs}"
+        + (f" --seed0 {args.seed0}" if args.seed0 else "")
         + (f" --set {' '.join(args.set)}" if args.set else "")
         + (f" --out {out}" if str(out) != "results/seed001" else "")
     )
     lines = [
-        f"# Seed 001: through-wall tracking of two persons, ToA association ({n} seeded runs)",
+        f"# Seed 001: through-wall tracking of two persons, ToA association ({n} seeded runs, seeds {seeds[0]}-"
+        f"{seeds[-1]})",
         "",
         f"Command: `{cmd}`",
         "",
@@ -473,7 +502,8 @@ def main() -> None:
         f"inside the room and farther than {GHOST_M} m from both (what a chain detecting every ToA exactly "
         f"would make without association). Position off the persons: a localized couple farther than {GHOST_M} m "
         "from both persons (any kind). Ghost track: a confirmed track whose median distance to the nearer person "
-        f"exceeds {GATE_M} m. False track: matched one-to-one (gate {GATE_M} m) to a person in fewer than half its "
+        f"exceeds {GATE_M} m; its origin: the kind of most of the localized couples within {GATE_M} m of it over "
+        f"its life. False track: matched one-to-one (gate {GATE_M} m) to a person in fewer than half its "
         "confirmed scans (ghosts, duplicates, tracks held far off). Tracked: a confirmed track holds the person in >= "
         f"{TRACKED_FRACTION:.0%} of the scans. RMSE: median over runs of the held scans' track error to the body "
         "centre.",
@@ -501,6 +531,11 @@ def main() -> None:
         _row(f"person's position within {GHOST_M} m (scans)", [f"{x['hit']:.1%}" for x in (a, a6, b)], ""),
         _row("runs with 0 ghost tracks", [f"{x['zero_ghost_tracks']:.0%}" for x in (a, a6, b)], "(ghosts removed)"),
         _row("ghost tracks per run", [f"{x['ghost_tracks']:.2f}" for x in (a, a6, b)], ""),
+        _row(
+            "ghost tracks per run fed by false-alarm couples / by persons' couples",
+            [f"{x['ghost_tracks_false']:.2f} / {x['ghost_tracks_person']:.2f}" for x in (a, a6, b)],
+            "",
+        ),
         _row("false tracks per run (one-to-one, gate)", [f"{x['false_tracks']:.2f}" for x in (a, a6, b)], ""),
         _row(
             "runs with both persons tracked",
@@ -514,12 +549,13 @@ def main() -> None:
         f"**{'holds' if holds else 'does not hold'}** ({a['zero_ghost_tracks']:.0%} of runs without a ghost track, "
         f"both persons tracked in {a['both']:.0%}).",
         "",
-        "Figures (run 0): radargrams.png, toa_association.png, positions_tracks.png. Per-chain numbers: summary.csv; "
+        f"Figures (run {seeds[0]}): radargrams.png, toa_association.png, positions_tracks.png. Per-chain numbers: "
+        "summary.csv; "
         "per-run rows: runs.csv (not committed).",
         "",
         _window_note(cfg),
     ]
     (out / "summary.md").write_text("\n".join(lines) + "\n")
-    rec0 = next(r for r in runs if r["seed"] == 0)
-    _figures(out, traces(0, overrides), rec0)
+    rec0 = next(r for r in runs if r["seed"] == seeds[0])
+    _figures(out, traces(seeds[0], overrides), rec0)
     print("\n".join(lines))

@@ -10,7 +10,13 @@ from uwb_env import scenarios
 from uwb_env.config import SignalConfig
 from uwb_env.constants import SPEED_OF_LIGHT_MPS as C
 from uwb_env.detection.registry import NORMALIZATIONS, toa_estimator
-from uwb_env.detection.toa_association import advance_normalization, all_couples, associate_toas, interval_toas
+from uwb_env.detection.toa_association import (
+    STILL_S,
+    advance_normalization,
+    all_couples,
+    associate_toas,
+    interval_toas,
+)
 from uwb_env.localization.couples import array_frame, compensate_walls, couple_covariance, couple_positions
 
 TX = np.array([0.0, 0.0])
@@ -129,6 +135,51 @@ def test_step6_completes_an_isolated_toa_from_the_previous_couple():
     assert done.tolist() == [True]
     assert associate_toas(np.array([25e-9]), np.zeros(0), 3e-9, *prev)[0].size == 0
     assert associate_toas(np.array([20.4e-9]), np.zeros(0), 3e-9)[0].size == 0
+
+
+def test_step6_stillness_bound_is_one_sample_of_the_seeds_clock():
+    """STILL_S = 1.5 samples at 4.5 GHz = 0.333 ns: "moved by at most one sample" (0.222 ns) is still, two samples
+    (0.444 ns) is motion; 0.10 m of bistatic range, below a radially walking person's 0.8 m/s x 2 x 0.074 s."""
+    assert STILL_S == pytest.approx(1.0 / 3.0 * 1e-9, rel=1e-12)
+    assert 1 / 4.5e9 < STILL_S < 2 / 4.5e9
+    assert STILL_S * C == pytest.approx(0.0999, abs=1e-4)
+    assert STILL_S * C < 0.8 * 2 * 0.074
+
+
+def test_step6_does_not_complete_an_isolated_toa_that_has_not_moved():
+    """A static residue: the previous couple sat at 20 ns in both receivers (C = 20 ns, W = m = 3 ns, O = 1: eq. 11
+    gives ToAs 20 / 20 ns). This scan only Rx1 holds a ToA: at 20.0 ns (unmoved) or 20.2 ns (one sample, 0.222 ns)
+    it is not completed; at 20.4 ns (moved 0.4 ns > STILL_S) it gets the couple (20, 20) ns back; the seed's literal
+    step 6 (still_s = 0) completes the unmoved one too. The same for an isolated Rx2 ToA."""
+    prev = (np.array([20e-9]), np.array([3e-9]), np.array([1]))
+    for t in (20.0e-9, 20.2e-9):
+        for rx in range(2):
+            toas = [np.zeros(0), np.zeros(0)]
+            toas[rx] = np.array([t])
+            assert associate_toas(*toas, 3e-9, *prev)[0].size == 0
+    a1, a2, centre, width, order, done = associate_toas(np.array([20.4e-9]), np.zeros(0), 3e-9, *prev)
+    np.testing.assert_allclose([a1[0], a2[0]], [20e-9, 20e-9], rtol=1e-12)
+    np.testing.assert_allclose([centre[0], width[0]], [20e-9, 3e-9], rtol=1e-12)  # eq. 10: C, W, O repeated
+    assert order.tolist() == [1]
+    assert done.tolist() == [True]
+    a1, a2, *_, done = associate_toas(np.array([20.0e-9]), np.zeros(0), 3e-9, *prev, still_s=0.0)
+    np.testing.assert_allclose([a1[0], a2[0]], [20e-9, 20e-9], rtol=1e-12)
+    assert done.tolist() == [True]
+
+
+def test_step6_stillness_compares_the_toa_with_its_own_receivers_toa_in_the_couple():
+    """Previous couple (19.5, 20.5) ns (C = 20, W = 2, O = 1, m = 3 ns). An isolated Rx2 ToA at 20.5 ns is 0.5 ns from
+    the centre (eq. 9 holds) but has not moved from the couple's Rx2 ToA: not completed. An isolated Rx1 ToA at
+    20.5 ns moved 1.0 ns from the couple's Rx1 ToA 19.5 ns: completed with (19.5, 20.5) ns. O = 2 mirrors it."""
+    prev = (np.array([20e-9]), np.array([2e-9]), np.array([1]))
+    assert associate_toas(np.zeros(0), np.array([20.5e-9]), 3e-9, *prev)[0].size == 0
+    a1, a2, *_, done = associate_toas(np.array([20.5e-9]), np.zeros(0), 3e-9, *prev)
+    np.testing.assert_allclose([a1[0], a2[0]], [19.5e-9, 20.5e-9], rtol=1e-12)
+    assert done.tolist() == [True]
+    mirrored = (np.array([20e-9]), np.array([2e-9]), np.array([2]))  # ToAs (20.5, 19.5) ns
+    assert associate_toas(np.array([20.5e-9]), np.zeros(0), 3e-9, *mirrored)[0].size == 0
+    a1, a2, *_ = associate_toas(np.zeros(0), np.array([20.5e-9]), 3e-9, *mirrored)
+    np.testing.assert_allclose([a1[0], a2[0]], [20.5e-9, 19.5e-9], rtol=1e-12)
 
 
 # ------------------------------------------------------------------------------------------ localization

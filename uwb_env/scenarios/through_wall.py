@@ -85,8 +85,8 @@ range against the parametric detections of the same scans):
   0.025 per m^2 (0.64 per scan and pair; 0.05 gave 1.3), the nearest to all three: -10 % / +16 % / -16 %.
 * the tracker on the parametric path (avg256, runs 0-11, ``calibrate_through_wall.tracker_check``): both persons
   held by a confirmed track in >= 50 % of the scans in every run (coverage 0.97 / 0.93), 0.08 false tracks per run,
-  RMSE 0.37 m (uncalibrated: 0.95 / 0.88, 0.33, 0.24 m; the signal path with association, results/seed001: 0.25
-  false tracks per run, RMSE 0.39 m).
+  RMSE 0.37 m (uncalibrated: 0.95 / 0.88, 0.33, 0.24 m; the signal path with association, results/seed001: 0.10
+  false tracks per run, RMSE 0.37 m).
 """
 
 from __future__ import annotations
