@@ -96,14 +96,16 @@ def random_geometry(b: Bench, rng: np.random.Generator, n: int, w: int, blind: b
 def notch(b: Bench, w: int, q: np.ndarray, length: np.ndarray, rdot: np.ndarray, eta: float, spread: float):
     """Parametric SCNR / SNR at (pair, range, range-rate) with residue fraction ``eta`` and clutter spread [Hz].
 
-    Includes the train's range-migration loss (``ParametricSensor.migration_gain``): the signal path's echoes walk.
+    Includes the train's range-migration loss for detection (``ParametricSensor.detection_migration_gain``): the
+    signal path's echoes walk.
     """
     p = b.param
     t, r = p.pairs[q, 0], p.pairs[q, 1]
     cnr = p.clutter_to_noise(w, t, r, length)
     wf = p.library[w]
     sigma = train_doppler_spread_hz(wf.config.n_pulses, wf.config.pri_s, spread)
-    return doppler_notch_gain(cnr, rdot, wf.wavelength_m, wf.config.pri_s, sigma, eta) * p.migration_gain(w, rdot)
+    gain = doppler_notch_gain(cnr, rdot, wf.wavelength_m, wf.config.pri_s, sigma, eta)
+    return gain * p.detection_migration_gain(w, rdot)
 
 
 def _pair_index(p: ParametricSensor, tx: int, rx: int) -> int:

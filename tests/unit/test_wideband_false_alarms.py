@@ -153,3 +153,26 @@ def test_chain_caps_peaks_per_image_cell():
     ep = s.new_episode(sample_truth(cfg, rngs.truth, s.layout), rngs)
     ratio = ep.expected_false_peaks[6] / ep.expected_false_peaks[2]
     assert np.all((ratio > 3.9) & (ratio < 4.1))
+
+
+def test_detection_sees_the_walked_ridge_of_a_wide_band():
+    """Pd's range-walk gain: G x the resolution cells the walk spans (capped at 1); G where it spans less than one."""
+    sensor = ParametricSensor(scenarios.get(WIDE))
+    rdot = np.array([0.0, 5.0, 10.0, 18.0, 25.0])
+    for w in range(len(sensor.library)):
+        cfg = sensor.library[w].config
+        g = sensor.migration_gain(np.full(rdot.size, w), rdot)
+        g_pd = sensor.detection_migration_gain(np.full(rdot.size, w), rdot)
+        cells = rdot * cfg.pri_s * (cfg.n_pulses - 1) / (299_792_458.0 / cfg.bandwidth_hz)
+        want = np.where(cells > 1.0, np.minimum(g * cells, 1.0), g)
+        np.testing.assert_allclose(g_pd, want, rtol=2e-3)
+        if w in NARROW:  # 40 MHz: the walk stays within one range cell at vehicle speeds
+            np.testing.assert_array_equal(g_pd, g)
+        else:  # 160 MHz at 18 m/s (10 ms): G -6.4 dB, 2.3 cells -> -2.8 dB for detection
+            assert np.all(g_pd >= g) and g_pd[3] > 1.5 * g[3]
+    # the lookahead's sensor model uses the same gain for Pd (and G for R)
+    pos = np.array([[2050.0, 1500.0]])
+    for speed in (0.0, 18.0):
+        vel = np.array([[speed, 0.0]])
+        pd_v, _ = sensor.expected_measurements(0, 0, pos, np.array([2, 6]), 10.0, 1, velocities=vel)
+        assert np.all((pd_v >= 0.0) & (pd_v <= 1.0))
