@@ -787,6 +787,11 @@ class SignalConfig:
     ``wall_compensation`` removes the known walls' excess delay from the couple's ranges before the
     intersection; a couple's position covariance takes the two ranges' errors as independent of std
     ``range_std_floor_m`` plus a common part of std ``couple_common_std_m`` (both receivers see the same body).
+    ``coherent_echoes`` (``background = "exponential-coherent"`` only): each echo (target, or body centre) keeps its
+    carrier phase from scan to scan, so its phase follows its delay as a real scatterer's does (off: a new uniform
+    phase every scan, which no background can cancel); the exponential average is then a moving-target indicator
+    that cancels a still target, and the parametric model of the same scenario takes the MTI's loss on the echo's
+    SNR at the target's bistatic range-rate (``uwb_env.channel.background_mti``).
 
     Seed 004's ToA (``toa_estimator = "hmm"``, :mod:`uwb_env.detection.hmm`): the scan's and the raw empty room's
     energies in bins of ``hmm_bin_s`` from the blind zone's end, the single-capture change statistic O_k per bin
@@ -861,6 +866,7 @@ class SignalConfig:
     couple_common_std_m: float = 0.0
     network: Literal["nu-tuples", "couples"] = "nu-tuples"
     wall_compensation: bool = False
+    coherent_echoes: bool = False
 
     def __post_init__(self) -> None:
         for name in (
@@ -957,6 +963,14 @@ class SignalConfig:
             _fail("SignalConfig", "normalization", self.normalization, "'none' with background = 'coherent'")
         if self.background == "exponential-coherent" and self.align_scans:
             _fail("SignalConfig", "align_scans", self.align_scans, "False with background = 'exponential-coherent'")
+        _choice("SignalConfig", "coherent_echoes", self.coherent_echoes, (True, False))
+        if self.coherent_echoes and self.background != "exponential-coherent":
+            _fail(
+                "SignalConfig",
+                "coherent_echoes",
+                self.coherent_echoes,
+                "False unless background = 'exponential-coherent'",
+            )
 
 
 @dataclass(frozen=True, slots=True)
