@@ -32,8 +32,10 @@ background, advance normalization, CFAR, ToA association, wall compensation, two
 Version history:
     * ``UrbanWideband-v2``: false alarms per waveform (``ClutterConfig.reference_bandwidth_hz`` = 40 MHz: the 160 MHz
       chirps draw 4x the seed's density, and their clutter map, which the tracker and the lookahead read, is 4x), and
-      the signal chain caps its peaks per image cell (``ChirpSignalConfig.scale_max_peaks``), with which the
-      parametric Pd of the 160 MHz chirps matches the chain (``results/calibration-urban-wideband/report.md``).
+      the signal chain caps its peaks per image cell (``ChirpSignalConfig.scale_max_peaks``), and the parametric Pd
+      sees a walked echo's ridge (``ParametricSensor.detection_migration_gain``: the 160 MHz chirps' range walk
+      costs detection about half the peak's loss in dB), with which the parametric Pd of the 160 MHz chirps matches
+      the chain (``results/calibration-urban-wideband/report.md``).
       Dynamics and rewards changed, spaces unchanged, hence the bump; ``UrbanWaveform-v3`` is unchanged (its 40 MHz
       library keeps every draw).
     * ``UrbanWaveform-v3``, ``UrbanWideband-v1`` (issue 15): the parametric Pd of the chirp scenarios is what the
