@@ -27,9 +27,10 @@ from __future__ import annotations
 
 import math
 
+import numba as nb
 import numpy as np
 
-from uwb_env.typing import FloatArray
+from uwb_env.typing import FloatArray, IntArray
 from uwb_env.waveforms.chirp import fold_periodic
 
 
@@ -67,3 +68,71 @@ def doppler_notch_gain(
     f = fold_doppler_hz(-np.asarray(range_rate_mps) / wavelength_m, 1.0 / np.asarray(pri_s))
     g = np.exp(-0.5 * (f / sigma_f_hz) ** 2)
     return 1.0 / (1.0 + residue_fraction * cnr * g)
+
+
+@nb.njit(cache=True, fastmath=False, nogil=True)
+def bistatic_range_rate(pos, vel, tx, rx):  # pragma: no cover - compiled
+    """Bistatic range ``(N,)`` [m] and range-rate ``(N,)`` [m/s] of points ``pos`` ``(N, 2)`` moving at ``vel``.
+
+    l_t + l_r and (d_t / max(l_t, 1e-9) + d_r / max(l_r, 1e-9)) . v, d = p - node, with numpy's operations in
+    numpy's order (``np.linalg.norm``, ``np.einsum``): the same numbers to the bit. ``tx``, ``rx`` ``(2,)``.
+    """
+    n = pos.shape[0]
+    rng = np.empty(n)
+    rdot = np.empty(n)
+    for i in range(n):
+        tx0, tx1 = pos[i, 0] - tx[0], pos[i, 1] - tx[1]
+        rx0, rx1 = pos[i, 0] - rx[0], pos[i, 1] - rx[1]
+        lt = np.sqrt(tx0 * tx0 + tx1 * tx1)
+        lr = np.sqrt(rx0 * rx0 + rx1 * rx1)
+        mt = lt if (lt >= 1e-9 or lt != lt) else 1e-9  # np.maximum (NaN propagates)
+        mr = lr if (lr >= 1e-9 or lr != lr) else 1e-9
+        acc = 0.0  # einsum's accumulator
+        acc += (tx0 / mt + rx0 / mr) * vel[i, 0]
+        acc += (tx1 / mt + rx1 / mr) * vel[i, 1]
+        rng[i] = lt + lr
+        rdot[i] = 0.0 + acc
+    return rng, rdot
+
+
+@nb.njit(cache=True, fastmath=False, nogil=True)
+def notch_terms(
+    cnr_table, step, wavelength_m, pri_s, sigma_f_hz, w, bistatic_range, range_rate_mps
+):  # pragma: no cover
+    """``(cnr (W, N), exponent (W, N))`` of :func:`doppler_notch_gain` for waveforms ``w`` ``(W,)`` at targets ``(N,)``.
+
+    ``cnr_table`` ``(W_lib, G)`` the pair's CNR on the range grid of ``step`` [m] (nearest cell, clipped);
+    ``wavelength_m``, ``pri_s``, ``sigma_f_hz`` ``(W_lib,)``. The exponent is -0.5 (f_fold / sigma_f)^2 with numpy's
+    operations in numpy's order (:func:`fold_doppler_hz`); the caller takes its ``np.exp`` (numpy's exp differs from
+    libm's in the last bit) and forms 1 / (1 + eta CNR G).
+    """
+    W, N = w.shape[0], bistatic_range.shape[0]
+    last = cnr_table.shape[-1] - 1
+    cnr = np.empty((W, N))
+    arg = np.empty((W, N))
+    for j in range(N):
+        g = np.int64(np.rint(bistatic_range[j] / step))
+        g = min(max(g, 0), last)
+        for i in range(W):
+            k = w[i]
+            cnr[i, j] = cnr_table[k, g]
+            v = -range_rate_mps[j] / wavelength_m[k]
+            period = 1.0 / pri_s[k]
+            if np.isfinite(period):
+                v = v - period * np.floor(v / period + 0.5)
+            x = v / sigma_f_hz[k]
+            arg[i, j] = -0.5 * (x * x)
+    return cnr, arg
+
+
+def doppler_notch_gain_at(
+    cnr_table: FloatArray, step: float, wavelength_m: FloatArray, pri_s: FloatArray, sigma_f_hz: FloatArray,
+    residue_fraction: float, w: IntArray, bistatic_range: FloatArray, range_rate_mps: FloatArray,
+) -> FloatArray:  # fmt: skip
+    """:func:`doppler_notch_gain` ``(W, N)`` of waveforms ``w`` ``(W,)`` at targets ``(N,)`` from one pair's CNR table.
+
+    The CNR at the nearest cell of the ``step`` grid (clipped), then the notch: the same numbers as the numpy
+    expression to the bit (:func:`notch_terms`, numpy's ``exp``).
+    """
+    cnr, arg = notch_terms(cnr_table, step, wavelength_m, pri_s, sigma_f_hz, w, bistatic_range, range_rate_mps)
+    return 1.0 / (1.0 + residue_fraction * cnr * np.exp(arg))

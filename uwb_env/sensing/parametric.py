@@ -59,8 +59,10 @@ from scipy.special import roots_genlaguerre
 
 from uwb_env.channel.coverage import blind_zone, in_field_of_view
 from uwb_env.channel.doppler_notch import (
+    bistatic_range_rate,
     clutter_cnr_profile,
     doppler_notch_gain,
+    doppler_notch_gain_at,
     train_doppler_spread_hz,
 )
 from uwb_env.channel.radar_equation import bistatic_radar_constant, direct_path_snr, leg_lengths
@@ -483,11 +485,27 @@ class ParametricSensor:
         if self._notch is None:
             return np.ones(np.broadcast_shapes(np.shape(bistatic_range), np.shape(w)))
         cnr_table, step, pri, sigma_f, lam = self._notch
+        eta = self.cfg.sensing.clutter.residue_fraction
+        if (
+            isinstance(tx, int | np.integer)
+            and isinstance(rx, int | np.integer)
+            and isinstance(w, np.ndarray)
+            and w.ndim == 2
+            and w.shape[1] == 1
+            and isinstance(bistatic_range, np.ndarray)
+            and bistatic_range.ndim == 2
+            and bistatic_range.shape[0] == 1
+            and isinstance(range_rate, np.ndarray)
+            and range_rate.shape == bistatic_range.shape
+        ):  # one pair, waveforms (W, 1) x targets (1, N) (expected_measurements): compiled, the same numbers
+            c = np.ascontiguousarray
+            return doppler_notch_gain_at(
+                cnr_table[:, tx, rx], step, lam, pri, sigma_f, eta, c(w[:, 0], dtype=np.int64),
+                c(bistatic_range[0], dtype=float), c(range_rate[0], dtype=float),
+            )  # fmt: skip
         g = np.clip(np.rint(np.asarray(bistatic_range) / step).astype(np.int64), 0, cnr_table.shape[-1] - 1)
         cnr = cnr_table[w, tx, rx, g]
-        return doppler_notch_gain(
-            cnr, range_rate, lam[w], pri[w], sigma_f[w], self.cfg.sensing.clutter.residue_fraction
-        )
+        return doppler_notch_gain(cnr, range_rate, lam[w], pri[w], sigma_f[w], eta)
 
     def _per_link(self, fn) -> FloatArray:
         """``(W, T, R)`` array of ``fn(waveform, tx config, rx config, (t, r))`` over the library and node pairs."""
@@ -1322,13 +1340,12 @@ class ParametricSensor:
         az, ok, snr, pd = self._mean_link(tx, rx, positions, waveforms, rcs_m2, swerling)
         walk = None  # the range-rates (N,) [m/s] with velocities and chirp trains
         if velocities is not None and (self._notch is not None or self._migration is not None):
-            pos = np.asarray(positions, dtype=float).reshape(-1, 2)
-            vel = np.asarray(velocities, dtype=float).reshape(-1, 2)
+            pos = np.ascontiguousarray(positions, dtype=float).reshape(-1, 2)
+            vel = np.ascontiguousarray(velocities, dtype=float).reshape(-1, 2)
             lay = self.layout
-            dt, dr = pos - lay.tx_pos[tx], pos - lay.rx_pos[rx]
-            lt, lr = np.linalg.norm(dt, axis=1), np.linalg.norm(dr, axis=1)
-            rdot = np.einsum("nd,nd->n", dt / np.maximum(lt, 1e-9)[:, None] + dr / np.maximum(lr, 1e-9)[:, None], vel)
-            snr = snr * self.notch_gain(waveforms[:, None], tx, rx, (lt + lr)[None], rdot[None])
+            # l_t + l_r and (d_t / l_t + d_r / l_r) . v, compiled (numpy's operations, the same numbers)
+            rng, rdot = bistatic_range_rate(pos, vel, lay.tx_pos[tx], lay.rx_pos[rx])
+            snr = snr * self.notch_gain(waveforms[:, None], tx, rx, rng[None], rdot[None])
             snr_pd = snr
             if self._migration is not None:  # compiled: every scan asks for it, per pair (sensing.compiled)
                 walk = rdot

@@ -13,7 +13,7 @@ scan every tracker's track set is a view of its block):
 3. pair by pair, in the sensor's pair order (each environment's own order, since detections come sorted by pair):
    ``compiled.receiver_update_batch``, the LMIPDA + PDA update of each environment's tracks with its own
    detections of the pair (LMIPDA couples tracks within one environment only);
-4. initiation from the unused detections: :func:`range_only_initiation`, every range-only environment in one
+4. initiation from the unused detections: ``initiation.range_only_initiation``, every range-only environment in one
    compiled call (an environment with azimuth or fused-position detections initiates with ``Tracker._initiate``);
 5. the new tentative tracks appended, confirmation and deletion (``tracker.confirm_and_keep``) over all rows.
 
@@ -26,14 +26,11 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 
-import numba as nb
 import numpy as np
-from scipy.stats import chi2
 
-from uwb_env.localization.compiled import ellipse_intersection, two_ellipse_intersections
 from uwb_env.sensing.records import Detections
 from uwb_env.tracking import compiled
-from uwb_env.tracking.compiled import initiate
+from uwb_env.tracking.initiation import initiate_compiled, offsets
 from uwb_env.tracking.lmipda import predict_existence
 from uwb_env.tracking.tracker import Tracker, _Candidates, confirm_and_keep
 from uwb_env.tracking.trackset import FIELDS as _FIELDS
@@ -42,30 +39,6 @@ from uwb_env.typing import FloatArray, IntArray
 
 BatchPdModel = Callable[[int, int, int, FloatArray], FloatArray]
 """``(tx, rx, waveform, positions (n, 2)) -> Pd (n,)``: the sensor model's detection probability (capped)."""
-
-
-_RATE_COLUMN: dict[tuple[str, ...], int] = {}
-
-
-def _rate_column(det: Detections) -> int:
-    """The range-rate column of ``det``'s measurements (-1: none; cached per measurement set)."""
-    names = det.measurement_names
-    col = _RATE_COLUMN.get(names)
-    if col is None:
-        col = _RATE_COLUMN[names] = names.index("range_rate") if "range_rate" in names else -1
-    return col
-
-
-def _flat(out: tuple) -> tuple:
-    """``((x, P, new_start), (rest_p, rest_cov, rest_start))`` -> one flat tuple."""
-    return (*out[0], *out[1])
-
-
-def _starts(sizes: Sequence[int]) -> IntArray:
-    """``(E + 1,)`` row offsets of E consecutive blocks of ``sizes`` rows."""
-    start = np.zeros(len(sizes) + 1, np.int64)
-    np.cumsum(sizes, out=start[1:])
-    return start
 
 
 class BatchedTracker:
@@ -79,12 +52,7 @@ class BatchedTracker:
             got = sorted(k.__name__ for k in kinds)
             raise TypeError(f"trackers: must all be {Tracker.__name__} (kind 'imm-lmipda'), got {got}")
         self.trackers = list(trackers)
-        self.cfg = cfg = trackers[0].cfg
-        cap = cfg.init_max_candidates
-        # detections kept per receiver for nu-tuples (Tracker._initiate), and the 3-tuples' residual bound
-        # (initiation.range_only_candidates' default residual_probability)
-        self._per_rx = np.array([0, 0, max(1, int(cap ** (1.0 / 2))), max(1, int(cap ** (1.0 / 3)))], np.int64)
-        self._residual_max = float(chi2.ppf(0.99, 1))
+        self.cfg = trackers[0].cfg
 
     def step(
         self,
@@ -128,7 +96,7 @@ class BatchedTracker:
         keep = np.where(any_confirmed[owner], confirmed, ~confirmed)  # the confirmed ones, else every one
         mu, active, x, P = (np.concatenate([getattr(t, f) for t in tracks])[keep] for f in ("mu", "active", "x", "P"))
         counts = np.bincount(owner[keep], minlength=which.size)
-        self._predict_models(trs, _starts(counts), mu, active, x, P, times_s, scan_indices)
+        self._predict_models(trs, offsets(counts), mu, active, x, P, times_s, scan_indices)
         xc, Pc = compiled.combine(mu, x, P)
         return xc, Pc, counts
 
@@ -143,7 +111,7 @@ class BatchedTracker:
         """Stage 4: initiation from the unused detections, one compiled call for the range-only environments.
 
         An environment with a free detection that carries an azimuth or is a fused position initiates on its own
-        (``Tracker._initiate``, which appends its tracks); the others go through :func:`range_only_initiation`
+        (``Tracker._initiate``, which appends its tracks); the others go through ``initiation.initiate_compiled``
         together. Returns their new tracks' states ``x (n, 6)``, ``P (n, 6, 6)`` in environment order and how many
         each environment gets ``(E,)`` (appended by :meth:`_confirm_and_prune`).
         """
@@ -158,39 +126,18 @@ class BatchedTracker:
                 groups.append(free)
         if not batch:
             return np.zeros((0, 6)), np.zeros((0, 6, 6)), np.zeros(len(trs), np.int64)
-        dets = [d for free in groups for d, _ in free]
         tr0 = trs[batch[0]]
-        cap = cfg.init_max_candidates
-        m = max((d.z.shape[1] for d in dets), default=1)
-        z = np.concatenate([d.z for d in dets]) if dets else np.zeros((0, m))
-        R = np.concatenate([d.R for d in dets]) if dets else np.zeros((0, m, m))
-        prev = [trs[j]._previous for j in batch]
-        x, P, new_start, rest_p, rest_cov, rest_start = _flat(
-            range_only_initiation(
-                np.ascontiguousarray(z, dtype=float),
-                np.ascontiguousarray(R, dtype=float),
-                np.ascontiguousarray(np.concatenate([d.snr for d in dets]) if dets else np.zeros(0), dtype=float),
-                np.concatenate([f for free in groups for _, f in free]) if dets else np.zeros(0, bool),
-                _starts([len(d) for d in dets]),
-                np.array([tr0.tx_pos[d.tx] for d in dets]).reshape(-1, 2),
-                np.array([tr0.rx_pos[d.rx] for d in dets]).reshape(-1, 2),
-                _starts([len(free) for free in groups]),
-                np.array([_rate_column(d) for d in dets], np.int64),
-                cap,
-                (2.0 * cfg.max_speed_mps) ** 2,
-                self._per_rx,
-                tr0.area,
-                tr0._starts,
-                self._residual_max,
-                np.concatenate([c.p for c in prev]),
-                np.concatenate([c.cov for c in prev]),
-                _starts([c.p.shape[0] for c in prev]),
-                np.array([float(times_s[j]) - c.time_s for j, c in zip(batch, prev, strict=True)]),
-                2.0 * cfg.init_max_position_std_m**2,
-                tr0._gates[2],
-                cfg.max_speed_mps,
-                cfg.initial_accel_std_mps2,
-            )
+        x, P, new_start, rest_p, rest_cov, rest_start = initiate_compiled(
+            groups,
+            [None] * len(batch),
+            [trs[j]._previous for j in batch],
+            [float(times_s[j]) for j in batch],
+            tr0.tx_pos,
+            tr0.rx_pos,
+            tr0.area,
+            tr0._starts,
+            tr0._gates[2],
+            cfg,
         )
         for i, j in enumerate(batch):
             s = slice(rest_start[i], rest_start[i + 1])
@@ -274,7 +221,7 @@ class BatchedTracker:
         if not (old.sum() + counts.sum()):
             return
         fresh = self._fresh_tracks(trs, x_new, P_new, counts, scan_indices)
-        new_at = _starts(counts)
+        new_at = offsets(counts)
         fields = {}
         for f in _FIELDS:
             pieces = []
@@ -292,7 +239,7 @@ class BatchedTracker:
             index = np.flatnonzero(keep)
             fields = {f: v.take(index, axis=0) for f, v in fields.items()}
             owner = owner[index]
-        start = _starts(np.bincount(owner, minlength=len(trs)))
+        start = offsets(np.bincount(owner, minlength=len(trs)))
         for j, tr in enumerate(trs):
             s = slice(start[j], start[j + 1])
             tr.tracks = TrackSet(*(fields[f][s] for f in _FIELDS))
@@ -307,7 +254,7 @@ class BatchedTracker:
         first_id = np.array([trs[j]._next_id for j in which.tolist()], np.int64)
         for j, c in zip(which.tolist(), counts[which].tolist(), strict=True):
             trs[j]._next_id += c
-        offset = np.arange(n) - np.repeat(_starts(counts[which])[:-1], counts[which])
+        offset = np.arange(n) - np.repeat(offsets(counts[which])[:-1], counts[which])
         masks = np.array([trs[j]._active_mask(int(scan_indices[j])) for j in which.tolist()]).reshape(-1, r)
         mask = np.repeat(masks, counts[which], axis=0)
         return {
@@ -326,7 +273,7 @@ class BatchedTracker:
     def _gather(trs: list[Tracker]) -> tuple[IntArray, dict[str, np.ndarray]]:
         """Every tracker's tracks concatenated (row offsets, fields); each tracker's tracks become views into them."""
         tracks = [tr.tracks for tr in trs]
-        start = _starts([len(t) for t in tracks])
+        start = offsets([len(t) for t in tracks])
         fields = {f: np.concatenate([getattr(t, f) for t in tracks]) for f in _FIELDS}
         for e, tr in enumerate(trs):
             s = slice(start[e], start[e + 1])
@@ -389,7 +336,7 @@ class BatchedTracker:
                 dets = [d for _, d in upd]
                 names = dets[0].measurement_names
                 kinds, wm, wc, sigma_scale, use_ukf = trs[upd[0][0]].compiled_filter_args(names)
-                det_start = _starts([len(d) for d in dets])
+                det_start = offsets([len(d) for d in dets])
                 R = np.concatenate([d.R for d in dets]).astype(float)  # a copy: the floor is added to it
                 if floor2 > 0.0 and "range_rate" in names:  # Tracker._with_floor
                     j = names.index("range_rate")
@@ -429,171 +376,3 @@ class BatchedTracker:
                 j = row.get(e)
                 unused[e].append((d, np.ones(len(d), bool) if j is None else free[det_start[j] : det_start[j + 1]]))
         return unused  # the trackers' existence arrays are views of fields["existence"], updated in place
-
-
-# ------------------------------------------------------------------------------------------------ initiation
-_jit = nb.njit(cache=True, fastmath=False, nogil=True)
-
-
-@_jit
-def _ordered_ranges(z, R, snr, free, lo, hi, rr, cap, max_rr_sq, r_out, v_out):  # pragma: no cover - compiled
-    """One pair's free detections (rows lo:hi), strongest first, at most ``cap``: ridge ranges and variances.
-
-    ``initiation.ridge_range`` on the rows ``Tracker._initiate`` keeps, with its operations in its order (so the
-    numbers are the same to the last bit); ``rr`` the range-rate column (-1: none). Returns how many were written.
-    """
-    idx = np.flatnonzero(free[lo:hi]) + lo
-    order = idx[np.argsort(-snr[idx], kind="mergesort")][:cap]
-    for q in range(order.size):
-        i = order[q]
-        if rr >= 0:
-            slope = R[i, 0, rr] / R[i, rr, rr]
-            v_out[q] = R[i, 0, 0] - slope * R[i, 0, rr] + (slope * slope) * max_rr_sq / 3.0
-            r_out[q] = z[i, 0] - slope * z[i, rr]
-        else:
-            r_out[q], v_out[q] = z[i, 0], R[i, 0, 0]
-    return order.size
-
-
-@_jit
-def _inside(p, area):  # pragma: no cover - compiled
-    return p[0] >= area[0] and p[0] <= area[1] and p[1] >= area[2] and p[1] <= area[3]
-
-
-@_jit
-def _range_only_candidates(rs, vs, counts, gtx, grx, nu, area, starts, residual_max):  # pragma: no cover
-    """``initiation.range_only_candidates`` of one environment's groups (ranges ``rs[g, :counts[g]]``), compiled.
-
-    Same rows in the same order: the nu-subsets of groups in lexicographic order, each one's detection tuples in
-    ``meshgrid(..., indexing="ij")`` order; two receivers of one transmitter by the closed form
-    (``two_ellipse_intersections``), otherwise Gauss-Newton (``ellipse_intersection``) with the residual test.
-    """
-    G = counts.shape[0]
-    combos = []
-    if nu == 2:
-        for a in range(G):
-            for b in range(a + 1, G):
-                combos.append((a, b, -1))  # noqa: PERF401 (a typed numba list)
-    else:
-        for a in range(G):
-            for b in range(a + 1, G):
-                for c in range(b + 1, G):
-                    combos.append((a, b, c))  # noqa: PERF401 (a typed numba list)
-    shared = nu == 2
-    if shared:
-        for a, b, _ in combos:
-            if gtx[a, 0] != gtx[b, 0] or gtx[a, 1] != gtx[b, 1]:
-                shared = False
-    n_rows = 0
-    for a, b, c in combos:
-        n_rows += counts[a] * counts[b] * (counts[c] if c >= 0 else 1)
-    if shared:
-        ps = np.empty((2 * n_rows, 2))
-        cs = np.empty((2 * n_rows, 2, 2))
-        k = 0
-        for a, b, _ in combos:
-            n = counts[a] * counts[b]
-            q = np.empty((n, 2))
-            v = np.empty((n, 2))
-            for i in range(counts[a]):
-                for j in range(counts[b]):
-                    q[i * counts[b] + j, 0], q[i * counts[b] + j, 1] = rs[a, i], rs[b, j]
-                    v[i * counts[b] + j, 0], v[i * counts[b] + j, 1] = vs[a, i], vs[b, j]
-            rx = np.empty((2, 2))
-            rx[0], rx[1] = grx[a], grx[b]
-            p, cov, ok = two_ellipse_intersections(q, v, gtx[a].copy(), rx)
-            for n_ in range(n):
-                for s in range(2):
-                    if ok[n_, s] and _inside(p[n_, s], area):
-                        ps[k] = p[n_, s]
-                        cs[k] = cov[n_, s]
-                        k += 1
-        return ps[:k], cs[:k]
-    r = np.empty((n_rows, nu))
-    v = np.empty((n_rows, nu))
-    t = np.empty((n_rows, nu, 2))
-    x = np.empty((n_rows, nu, 2))
-    k = 0
-    for a, b, c in combos:
-        nc = counts[c] if c >= 0 else 1
-        for i in range(counts[a]):
-            for j in range(counts[b]):
-                for h in range(nc):
-                    r[k, 0], v[k, 0], t[k, 0], x[k, 0] = rs[a, i], vs[a, i], gtx[a], grx[a]
-                    r[k, 1], v[k, 1], t[k, 1], x[k, 1] = rs[b, j], vs[b, j], gtx[b], grx[b]
-                    if c >= 0:
-                        r[k, 2], v[k, 2], t[k, 2], x[k, 2] = rs[c, h], vs[c, h], gtx[c], grx[c]
-                    k += 1
-    p, cov, cost = ellipse_intersection(r, v, t, x, starts, 15)
-    keep = np.zeros(n_rows, np.bool_)
-    for n_ in range(n_rows):
-        keep[n_] = _inside(p[n_], area) and (nu == 2 or cost[n_] <= residual_max)
-    idx = np.flatnonzero(keep)
-    return p[idx], cov[idx]
-
-
-@_jit
-def range_only_initiation(
-    z, R, snr, free, group_start, group_tx, group_rx, env_group_start, rr, cap, max_rr_sq, per_rx, area, starts,
-    residual_max, prev_p, prev_cov, prev_start, dts, max_spread, gate2, max_speed, accel_std,
-):  # pragma: no cover - compiled  # fmt: skip
-    """``Tracker._initiate`` (range-only detections) of several environments in one call.
-
-    The unused detections of every environment are concatenated: pair-group g owns rows
-    ``group_start[g]:group_start[g + 1]`` of z ``(M, m)``, R, snr and free ``(M,)``, with its transmitter and receiver
-    positions ``group_tx[g]``, ``group_rx[g]`` ``(2,)`` and its range-rate column ``rr[g]``; environment e owns the
-    groups ``env_group_start[e]:env_group_start[e + 1]`` (those with a free detection) and the previous scan's
-    unpaired candidates ``prev_start[e]:prev_start[e + 1]`` of prev_p, prev_cov, ``dts[e]`` after them.
-    ``per_rx[nu]`` the detections kept per receiver for nu-tuples, ``residual_max`` the chi-square residual bound of
-    3-tuples; the rest as ``compiled.initiate``.
-
-    Returns: the new tracks' x ``(n, 6)``, P ``(n, 6, 6)`` with env offsets ``(E + 1,)``, and the unpaired
-    candidates ``(C, 2)``, ``(C, 2, 2)`` with env offsets.
-    """
-    E = env_group_start.shape[0] - 1
-    xs = []
-    Ps = []
-    rest_p = []
-    rest_c = []
-    for e in range(E):
-        g0, g1 = env_group_start[e], env_group_start[e + 1]
-        G = g1 - g0
-        p = np.zeros((0, 2))
-        cov = np.zeros((0, 2, 2))
-        if G >= 2:
-            nu = min(3, G)
-            rs = np.empty((G, cap))
-            vs = np.empty((G, cap))
-            counts = np.empty(G, np.int64)
-            for g in range(G):
-                n = _ordered_ranges(
-                    z, R, snr, free, group_start[g0 + g], group_start[g0 + g + 1], rr[g0 + g], cap, max_rr_sq,
-                    rs[g], vs[g],
-                )  # fmt: skip
-                counts[g] = min(n, per_rx[nu])
-            p, cov = _range_only_candidates(
-                rs, vs, counts, group_tx[g0:g1], group_rx[g0:g1], nu, area, starts, residual_max
-            )
-        a0, a1 = prev_start[e], prev_start[e + 1]
-        x, P, rp, rc = initiate(
-            p, cov, prev_p[a0:a1], prev_cov[a0:a1], dts[e], area, max_spread, cap, gate2, max_speed, accel_std
-        )
-        xs.append(x)
-        Ps.append(P)
-        rest_p.append(rp)
-        rest_c.append(rc)
-    return _stack(xs, Ps, 6), _stack(rest_p, rest_c, 2)
-
-
-@_jit
-def _stack(means, covs, d):  # pragma: no cover - compiled
-    """Concatenate per-environment ``(n_e, d)``, ``(n_e, d, d)`` arrays; returns them and the env offsets."""
-    start = np.zeros(len(means) + 1, np.int64)
-    for e in range(len(means)):
-        start[e + 1] = start[e] + means[e].shape[0]
-    m = np.empty((start[-1], d))
-    c = np.empty((start[-1], d, d))
-    for e in range(len(means)):
-        m[start[e] : start[e + 1]] = means[e]
-        c[start[e] : start[e + 1]] = covs[e]
-    return m, c, start

@@ -21,13 +21,22 @@ candidate with one of the previous scan's when each velocity component satisfies
 
 from __future__ import annotations
 
+import functools
 import itertools
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
 
+import numba as nb
 import numpy as np
 from scipy.stats import chi2
 
-from uwb_env.localization.compiled import ellipse_intersection_fast, two_ellipse_intersections
-from uwb_env.typing import BoolArray, FloatArray
+from uwb_env.localization.compiled import ellipse_intersection, ellipse_intersection_fast, two_ellipse_intersections
+from uwb_env.tracking.compiled import initiate
+from uwb_env.typing import BoolArray, FloatArray, IntArray
+
+if TYPE_CHECKING:
+    from uwb_env.config import TrackerConfig
+    from uwb_env.sensing.records import Detections
 
 
 def ridge_range(
@@ -175,3 +184,296 @@ def two_point_pairs(
     _, first_j = np.unique(j, return_index=True)
     keep = np.sort(first_j)
     return i[keep], j[keep]
+
+
+# ------------------------------------------------------------------------------------- compiled initiation
+_jit = nb.njit(cache=True, fastmath=False, nogil=True)
+_EMPTY_P, _EMPTY_COV = np.zeros((0, 2)), np.zeros((0, 2, 2))
+_RATE_COLUMN: dict[tuple[str, ...], int] = {}
+
+
+def _rate_column(names: tuple[str, ...]) -> int:
+    """The range-rate column of measurements ``names`` (-1: none; cached per measurement set)."""
+    col = _RATE_COLUMN.get(names)
+    if col is None:
+        col = _RATE_COLUMN[names] = names.index("range_rate") if "range_rate" in names else -1
+    return col
+
+
+def offsets(sizes: Sequence[int]) -> IntArray:
+    """``(E + 1,)`` row offsets of E consecutive blocks of ``sizes`` rows."""
+    if isinstance(sizes, np.ndarray):
+        start = np.zeros(sizes.size + 1, np.int64)
+        np.cumsum(sizes, out=start[1:])
+        return start
+    return np.array([0, *itertools.accumulate(sizes)], np.int64)  # a short list: cheaper than np.cumsum
+
+
+@functools.lru_cache(maxsize=16)
+def _tuple_bounds(cap: int) -> tuple[IntArray, float]:
+    """``(per_rx (4,), residual_max)``: the nu-tuples' detections per receiver and residual bound.
+
+    ``Tracker._initiate`` keeps at most ``cap`` tuples per receiver subset; the 3-tuples' chi-square bound is
+    :func:`range_only_candidates`' default ``residual_probability``.
+    """
+    per_rx = np.array([0, 0, max(1, int(cap ** (1.0 / 2))), max(1, int(cap ** (1.0 / 3)))], np.int64)
+    return per_rx, float(chi2.ppf(0.99, 1))
+
+
+def initiate_compiled(
+    groups: Sequence[Sequence[tuple[Detections, BoolArray]]],
+    extra: Sequence[tuple[FloatArray, FloatArray] | None],
+    previous: Sequence[Any],
+    times_s: Sequence[float],
+    tx_pos: FloatArray,
+    rx_pos: FloatArray,
+    area: FloatArray,
+    starts: FloatArray,
+    gate2: float,
+    cfg: TrackerConfig,
+) -> tuple[FloatArray, FloatArray, IntArray, FloatArray, FloatArray, IntArray]:
+    """``Tracker._initiate`` after its per-pair candidates, for E environments in one compiled call.
+
+    ``groups[e]``: environment e's range-only pairs with a free detection ``(detections, free (n,))``, in the scan's
+    order; ``extra[e]``: its other candidates ``(p (k, 2), cov (k, 2, 2))`` (array receivers, fused positions) or
+    None; ``previous[e]``: its previous scan's unpaired candidates (``.p``, ``.cov``, ``.time_s``); ``times_s[e]`` its
+    scan time. The node positions, area, Gauss-Newton starts and the 2-D gate are the trackers' (one configuration).
+
+    Returns the new tracks' x ``(n, 6)``, P ``(n, 6, 6)`` and environment offsets ``(E + 1,)``, then the unpaired
+    candidates ``(C, 2)``, ``(C, 2, 2)`` and their offsets (:func:`range_only_initiation`).
+    """
+    dets = [d for g in groups for d, _ in g]
+    if len(dets) == 1:
+        d = dets[0]
+        z, R, snr, free = d.z, d.R, d.snr, next(f for g in groups for _, f in g)
+    elif dets:
+        m = max(d.z.shape[1] for d in dets)
+        if all(d.z.shape[1] == m for d in dets):
+            z, R = np.concatenate([d.z for d in dets]), np.concatenate([d.R for d in dets])
+        else:  # mixed measurement sets (range, range-rate): only columns 0 and the range-rate one are read
+            z, R = np.zeros((sum(len(d) for d in dets), m)), np.zeros((sum(len(d) for d in dets), m, m))
+            i = 0
+            for d in dets:
+                k, w = len(d), d.z.shape[1]
+                z[i : i + k, :w], R[i : i + k, :w, :w] = d.z, d.R
+                i += k
+        snr = np.concatenate([d.snr for d in dets])
+        free = np.concatenate([f for g in groups for _, f in g])
+    else:
+        z, R, snr, free = np.zeros((0, 1)), np.zeros((0, 1, 1)), np.zeros(0), np.zeros(0, bool)
+    have = [e for e in extra if e is not None]
+    if len(have) == len(extra) == 1:
+        extra_p, extra_cov = have[0]
+    elif have:
+        extra_p, extra_cov = np.concatenate([e[0] for e in have]), np.concatenate([e[1] for e in have])
+    else:
+        extra_p, extra_cov = _EMPTY_P, _EMPTY_COV
+    if len(previous) == 1:
+        prev_p, prev_cov = previous[0].p, previous[0].cov
+    else:
+        prev_p, prev_cov = np.concatenate([c.p for c in previous]), np.concatenate([c.cov for c in previous])
+    per_rx, residual_max = _tuple_bounds(cfg.init_max_candidates)
+    c = np.ascontiguousarray
+    out = range_only_initiation(
+        c(z, dtype=float),
+        c(R, dtype=float),
+        c(snr, dtype=float),
+        c(free, dtype=bool),
+        offsets([len(d) for d in dets]),
+        tx_pos[[d.tx for d in dets]].reshape(-1, 2),
+        rx_pos[[d.rx for d in dets]].reshape(-1, 2),
+        offsets([len(g) for g in groups]),
+        np.array([_rate_column(d.measurement_names) for d in dets], np.int64),
+        cfg.init_max_candidates,
+        (2.0 * cfg.max_speed_mps) ** 2,
+        per_rx,
+        area,
+        starts,
+        residual_max,
+        c(extra_p, dtype=float),
+        c(extra_cov, dtype=float),
+        offsets([0 if e is None else e[0].shape[0] for e in extra]),
+        c(prev_p, dtype=float),
+        c(prev_cov, dtype=float),
+        offsets([c_.p.shape[0] for c_ in previous]),
+        np.array([t - c_.time_s for t, c_ in zip(times_s, previous, strict=True)], dtype=float),
+        2.0 * cfg.init_max_position_std_m**2,
+        gate2,
+        cfg.max_speed_mps,
+        cfg.initial_accel_std_mps2,
+    )
+    return (*out[0], *out[1])
+
+
+@_jit
+def _ordered_ranges(z, R, snr, free, lo, hi, rr, cap, max_rr_sq, r_out, v_out):  # pragma: no cover - compiled
+    """One pair's free detections (rows lo:hi), strongest first, at most ``cap``: ridge ranges and variances.
+
+    :func:`ridge_range` on the rows ``Tracker._initiate`` keeps, with its operations in its order (so the
+    numbers are the same to the last bit); ``rr`` the range-rate column (-1: none). Returns how many were written.
+    """
+    idx = np.flatnonzero(free[lo:hi]) + lo
+    order = idx[np.argsort(-snr[idx], kind="mergesort")][:cap]
+    for q in range(order.size):
+        i = order[q]
+        if rr >= 0:
+            slope = R[i, 0, rr] / R[i, rr, rr]
+            v_out[q] = R[i, 0, 0] - slope * R[i, 0, rr] + (slope * slope) * max_rr_sq / 3.0
+            r_out[q] = z[i, 0] - slope * z[i, rr]
+        else:
+            r_out[q], v_out[q] = z[i, 0], R[i, 0, 0]
+    return order.size
+
+
+@_jit
+def _inside(p, area):  # pragma: no cover - compiled
+    return p[0] >= area[0] and p[0] <= area[1] and p[1] >= area[2] and p[1] <= area[3]
+
+
+@_jit
+def _range_only_candidates(rs, vs, counts, gtx, grx, nu, area, starts, residual_max):  # pragma: no cover
+    """:func:`range_only_candidates` of one environment's groups (ranges ``rs[g, :counts[g]]``), compiled.
+
+    Same rows in the same order: the nu-subsets of groups in lexicographic order, each one's detection tuples in
+    ``meshgrid(..., indexing="ij")`` order; two receivers of one transmitter by the closed form
+    (``two_ellipse_intersections``), otherwise Gauss-Newton (``ellipse_intersection``) with the residual test.
+    """
+    G = counts.shape[0]
+    combos = []
+    if nu == 2:
+        for a in range(G):
+            for b in range(a + 1, G):
+                combos.append((a, b, -1))  # noqa: PERF401 (a typed numba list)
+    else:
+        for a in range(G):
+            for b in range(a + 1, G):
+                for c in range(b + 1, G):
+                    combos.append((a, b, c))  # noqa: PERF401 (a typed numba list)
+    shared = nu == 2
+    if shared:
+        for a, b, _ in combos:
+            if gtx[a, 0] != gtx[b, 0] or gtx[a, 1] != gtx[b, 1]:
+                shared = False
+    n_rows = 0
+    for a, b, c in combos:
+        n_rows += counts[a] * counts[b] * (counts[c] if c >= 0 else 1)
+    if shared:
+        ps = np.empty((2 * n_rows, 2))
+        cs = np.empty((2 * n_rows, 2, 2))
+        k = 0
+        for a, b, _ in combos:
+            n = counts[a] * counts[b]
+            q = np.empty((n, 2))
+            v = np.empty((n, 2))
+            for i in range(counts[a]):
+                for j in range(counts[b]):
+                    q[i * counts[b] + j, 0], q[i * counts[b] + j, 1] = rs[a, i], rs[b, j]
+                    v[i * counts[b] + j, 0], v[i * counts[b] + j, 1] = vs[a, i], vs[b, j]
+            rx = np.empty((2, 2))
+            rx[0], rx[1] = grx[a], grx[b]
+            p, cov, ok = two_ellipse_intersections(q, v, gtx[a].copy(), rx)
+            for n_ in range(n):
+                for s in range(2):
+                    if ok[n_, s] and _inside(p[n_, s], area):
+                        ps[k] = p[n_, s]
+                        cs[k] = cov[n_, s]
+                        k += 1
+        return ps[:k], cs[:k]
+    r = np.empty((n_rows, nu))
+    v = np.empty((n_rows, nu))
+    t = np.empty((n_rows, nu, 2))
+    x = np.empty((n_rows, nu, 2))
+    k = 0
+    for a, b, c in combos:
+        nc = counts[c] if c >= 0 else 1
+        for i in range(counts[a]):
+            for j in range(counts[b]):
+                for h in range(nc):
+                    r[k, 0], v[k, 0], t[k, 0], x[k, 0] = rs[a, i], vs[a, i], gtx[a], grx[a]
+                    r[k, 1], v[k, 1], t[k, 1], x[k, 1] = rs[b, j], vs[b, j], gtx[b], grx[b]
+                    if c >= 0:
+                        r[k, 2], v[k, 2], t[k, 2], x[k, 2] = rs[c, h], vs[c, h], gtx[c], grx[c]
+                    k += 1
+    p, cov, cost = ellipse_intersection(r, v, t, x, starts, 15)
+    keep = np.zeros(n_rows, np.bool_)
+    for n_ in range(n_rows):
+        keep[n_] = _inside(p[n_], area) and (nu == 2 or cost[n_] <= residual_max)
+    idx = np.flatnonzero(keep)
+    return p[idx], cov[idx]
+
+
+@_jit
+def range_only_initiation(
+    z, R, snr, free, group_start, group_tx, group_rx, env_group_start, rr, cap, max_rr_sq, per_rx, area, starts,
+    residual_max, extra_p, extra_cov, extra_start, prev_p, prev_cov, prev_start, dts, max_spread, gate2, max_speed,
+    accel_std,
+):  # pragma: no cover - compiled  # fmt: skip
+    """``Tracker._initiate`` of several environments in one call (the single tracker: E = 1).
+
+    The unused detections of every environment are concatenated: pair-group g owns rows
+    ``group_start[g]:group_start[g + 1]`` of z ``(M, m)``, R, snr and free ``(M,)``, with its transmitter and receiver
+    positions ``group_tx[g]``, ``group_rx[g]`` ``(2,)`` and its range-rate column ``rr[g]``; environment e owns the
+    groups ``env_group_start[e]:env_group_start[e + 1]`` (those with a free detection) and the previous scan's
+    unpaired candidates ``prev_start[e]:prev_start[e + 1]`` of prev_p, prev_cov, ``dts[e]`` after them.
+    ``per_rx[nu]`` the detections kept per receiver for nu-tuples, ``residual_max`` the chi-square residual bound of
+    3-tuples; ``extra_start[e]:extra_start[e + 1]`` of extra_p ``(K, 2)``, extra_cov ``(K, 2, 2)`` environment e's
+    candidates of other kinds (array receivers, fused positions: ``Tracker._initiate``), placed before its
+    range-only ones; the rest as ``compiled.initiate``.
+
+    Returns: the new tracks' x ``(n, 6)``, P ``(n, 6, 6)`` with env offsets ``(E + 1,)``, and the unpaired
+    candidates ``(C, 2)``, ``(C, 2, 2)`` with env offsets.
+    """
+    E = env_group_start.shape[0] - 1
+    xs = []
+    Ps = []
+    rest_p = []
+    rest_c = []
+    for e in range(E):
+        g0, g1 = env_group_start[e], env_group_start[e + 1]
+        G = g1 - g0
+        pr = np.zeros((0, 2))
+        cr = np.zeros((0, 2, 2))
+        if G >= 2:
+            nu = min(3, G)
+            rs = np.empty((G, cap))
+            vs = np.empty((G, cap))
+            counts = np.empty(G, np.int64)
+            for g in range(G):
+                n = _ordered_ranges(
+                    z, R, snr, free, group_start[g0 + g], group_start[g0 + g + 1], rr[g0 + g], cap, max_rr_sq,
+                    rs[g], vs[g],
+                )  # fmt: skip
+                counts[g] = min(n, per_rx[nu])
+            pr, cr = _range_only_candidates(
+                rs, vs, counts, group_tx[g0:g1], group_rx[g0:g1], nu, area, starts, residual_max
+            )
+        k0, k1 = extra_start[e], extra_start[e + 1]
+        p = np.empty((k1 - k0 + pr.shape[0], 2))
+        cov = np.empty((k1 - k0 + pr.shape[0], 2, 2))
+        p[: k1 - k0] = extra_p[k0:k1]
+        cov[: k1 - k0] = extra_cov[k0:k1]
+        p[k1 - k0 :] = pr
+        cov[k1 - k0 :] = cr
+        a0, a1 = prev_start[e], prev_start[e + 1]
+        x, P, rp, rc = initiate(
+            p, cov, prev_p[a0:a1], prev_cov[a0:a1], dts[e], area, max_spread, cap, gate2, max_speed, accel_std
+        )
+        xs.append(x)
+        Ps.append(P)
+        rest_p.append(rp)
+        rest_c.append(rc)
+    return _stack(xs, Ps, 6), _stack(rest_p, rest_c, 2)
+
+
+@_jit
+def _stack(means, covs, d):  # pragma: no cover - compiled
+    """Concatenate per-environment ``(n_e, d)``, ``(n_e, d, d)`` arrays; returns them and the env offsets."""
+    start = np.zeros(len(means) + 1, np.int64)
+    for e in range(len(means)):
+        start[e + 1] = start[e] + means[e].shape[0]
+    m = np.empty((start[-1], d))
+    c = np.empty((start[-1], d, d))
+    for e in range(len(means)):
+        m[start[e] : start[e + 1]] = means[e]
+        c[start[e] : start[e + 1]] = covs[e]
+    return m, c, start

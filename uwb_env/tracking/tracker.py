@@ -47,6 +47,7 @@ from uwb_env.tracking import compiled
 from uwb_env.tracking.expectation import GaussianLookahead, filter_args
 from uwb_env.tracking.imm import imm_combine, restrict_transition, switch_model_sets, switch_probabilities
 from uwb_env.tracking.initiation import (
+    initiate_compiled,
     range_azimuth_candidates,
     range_only_candidates,
     ridge_range,
@@ -157,6 +158,8 @@ class Tracker(GaussianLookahead):
         self._starts = np.array(
             [[cx, cy], [cx - hx, cy - hy], [cx + hx, cy - hy], [cx - hx, cy + hy], [cx + hx, cy + hy]]
         )
+        # the compiled initiation unless a subclass brings its own selection (the numpy reference)
+        self._fused_initiation = type(self)._form_tracks is Tracker._form_tracks
         self.reset()
 
     @classmethod
@@ -418,8 +421,14 @@ class Tracker(GaussianLookahead):
 
     # ------------------------------------------------------------------------------------------ initiation
     def _initiate(self, unused: list[tuple[Detections, BoolArray]], time_s: float, scan_index: int) -> None:
-        cfg = self.cfg
-        ps, covs, range_groups = [], [], []
+        """Step 4 (module docstring): candidates from the free detections, then ``_form_tracks``' selection.
+
+        Fused positions and array receivers' candidates per pair; the range-only pairs' nu-tuples and the selection,
+        fusion and two-point differencing in one compiled call (``initiation.initiate_compiled``, the batched
+        trackers' kernel with one environment); a subclass that overrides ``_form_tracks`` (the numpy reference)
+        gets the numpy candidates (``initiation.range_only_candidates``) and its own ``_form_tracks``.
+        """
+        ps, covs, range_dets = [], [], []
         for det, free in unused:  # per pair: a small fixed set
             if not free.any():
                 continue
@@ -428,22 +437,67 @@ class Tracker(GaussianLookahead):
                 ps.append(det.z[free])
                 covs.append(det.R[free])
                 continue
-            tx, rx = self.tx_pos[det.tx], self.rx_pos[det.rx]
-            if "azimuth" in names and (found := self._azimuth_candidates(det, free, tx, rx)) is not None:
+            if "azimuth" in names:
+                tx, rx = self.tx_pos[det.tx], self.rx_pos[det.rx]
+                found = self._azimuth_candidates(det, free, tx, rx)
+                if found is None:
+                    found = self._range_azimuth_candidates(det, free, tx, rx)
                 ps.append(found[0])
                 covs.append(found[1])
                 continue
+            range_dets.append((det, free))
+        if not self._fused_initiation:
+            self._initiate_numpy(ps, covs, range_dets, time_s, scan_index)
+            return
+        extra = None
+        if ps:
+            extra = (np.concatenate(ps), np.concatenate(covs)) if len(ps) > 1 else (ps[0], covs[0])
+        x, P, _, rest_p, rest_cov, _ = initiate_compiled(
+            [range_dets],
+            [extra],
+            [self._previous],
+            [time_s],
+            self.tx_pos,
+            self.rx_pos,
+            self.area,
+            self._starts,
+            self._gates[2],
+            self.cfg,
+        )
+        if x.shape[0]:
+            self._append_tracks(x, P, scan_index)
+        self._previous = _Candidates(rest_p, rest_cov, time_s)
+
+    def _range_azimuth_candidates(
+        self, det: Detections, free: BoolArray, tx: FloatArray, rx: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """Array-receiver candidates with numpy (``initiation.range_azimuth_candidates``; the reference's path)."""
+        cfg, names = self.cfg, det.measurement_names
+        # strongest first, so that any cap below keeps the strongest detections (dense clutter)
+        order = np.argsort(-det.snr[free], kind="stable")[: cfg.init_max_candidates]
+        z, R = det.z[free][order], det.R[free][order]
+        r, var_r = ridge_range(z, R, names, 2.0 * cfg.max_speed_mps)
+        a = names.index("azimuth")
+        p, cov, ok = range_azimuth_candidates(r, var_r, z[:, a], R[:, a, a], tx, rx)
+        return p[ok], cov[ok]
+
+    def _initiate_numpy(
+        self,
+        ps: list[FloatArray],
+        covs: list[FloatArray],
+        range_dets: list[tuple[Detections, BoolArray]],
+        time_s: float,
+        scan_index: int,
+    ) -> None:
+        """The range-only candidates with numpy (``initiation.range_only_candidates``), then ``_form_tracks``."""
+        cfg = self.cfg
+        range_groups = []
+        for det, free in range_dets:
             # strongest first, so that any cap below keeps the strongest detections (dense clutter)
             order = np.argsort(-det.snr[free], kind="stable")[: cfg.init_max_candidates]
             z, R = det.z[free][order], det.R[free][order]
-            r, var_r = ridge_range(z, R, names, 2.0 * cfg.max_speed_mps)
-            if "azimuth" in names:
-                a = names.index("azimuth")
-                p, cov, ok = range_azimuth_candidates(r, var_r, z[:, a], R[:, a, a], tx, rx)
-                ps.append(p[ok])
-                covs.append(cov[ok])
-            else:
-                range_groups.append((r, var_r, tx, rx))
+            r, var_r = ridge_range(z, R, det.measurement_names, 2.0 * cfg.max_speed_mps)
+            range_groups.append((r, var_r, self.tx_pos[det.tx], self.rx_pos[det.rx]))
         if len(range_groups) >= 2:
             nu = min(3, len(range_groups))
             per_rx = max(1, int(cfg.init_max_candidates ** (1.0 / nu)))  # tuples <= init_max_candidates per subset
