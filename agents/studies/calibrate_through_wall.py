@@ -21,11 +21,13 @@ seeds each. Per scan, receiver and person (the parametric pair's bistatic range,
   detection of that origin is there; false detections the origin -1 rows; the range error of the person detections
   against the free-space bistatic range (the radar compensates the wall, ``sensing.compensate_walls``).
 
-The cells are binned by the person's mean integrated SNR (the parametric radar constant times the geometry's unit
-SNR, walls' loss included), per waveform. The parametric Pd is Swerling III at ``false_alarm_probability`` and the
-gain ``detection_gain_db`` (and each waveform's own), fitted here by grid search to the largest |Pd difference| over
-the bins holding at least ``MIN_CELLS`` cells: one Pfa for all, one gain per waveform. The false rate per scan and
-pair gives ``clutter.density_per_m2`` (the parametric false count is density x the pair's gate area, linear in it).
+The cells are binned by the person's mean integrated SNR (the parametric radar constant times the geometry's unit SNR,
+walls' loss included) times what seed 001's exponential background leaves of the echo at the person's bistatic
+range-rate history (``ParametricSensor.mti_history``, ``uwb_env.channel.background_mti``: 0.12 for a Swerling III person
+standing still, ~1.06 while walking), per waveform. The parametric Pd is Swerling III at ``false_alarm_probability`` and
+the gain ``detection_gain_db`` (and each waveform's own), fitted here by grid search to the largest |Pd difference| over
+the bins holding at least ``MIN_CELLS`` cells: one Pfa for all, one gain per waveform. The false rate per scan and pair
+gives ``clutter.density_per_m2`` (the parametric false count is density x the pair's gate area, linear in it).
 
 The check: parametric and signal Pd within 0.05 (every populated bin), false rates within 20 %, range spread within
 30 % (the parametric independent std against the chain's per-receiver total, hypot(independent, common): the
@@ -96,6 +98,7 @@ def signal_cells(seed: int, w: int, power_db: float, extra: dict) -> dict:
     ep = s.new_episode(truth, rngs)
     plan = ScanPlan.all_listening(w, s.n_tx, s.n_rx)
     snr = s.model.radar_constant[w, 0][None, :, None] * ep.geom.unit_snr[:, 0]  # (S + 1, R, K)
+    snr = snr * s.model.mti_history(ep.geom)[w, :, 0]  # what the exponential background leaves (MTI)
     out = {"snr": [], "sep": [], "dp": [], "hit": [], "false": 0, "false_span_m": 0.0, "slots": 0}
     lo, hi = span_m(cfg, s.baseline)
     out["err"] = np.full((cfg.n_scans, s.n_rx, truth.states.shape[1]), math.nan)
@@ -138,6 +141,7 @@ def parametric_cells(seed: int, w: int, power_db: float, extra: dict) -> dict:
     plan = ScanPlan.all_listening(w, s.n_tx, s.n_rx)
     geom = ep.geometry
     snr = s.radar_constant[w, 0][None, :, None] * geom.unit_snr[:, 0]
+    snr = snr * s.mti_history(geom)[w, :, 0]  # what the exponential background leaves (MTI)
     tx = s.layout.tx_pos[0]
     out = {"snr": [], "sep": [], "hit": [], "false": 0, "slots": 0}
     out["err"] = np.full((cfg.n_scans, s.n_rx, truth.states.shape[1]), math.nan)

@@ -13,7 +13,7 @@ ENV_IDS = {
         "subset_size": 3,
         "receiver_warmup": True,
     },
-    "uwb_env/ThroughWall-v0": {"scenario": "through-wall", "action_kind": "waveform"},
+    "uwb_env/ThroughWall-v1": {"scenario": "through-wall", "action_kind": "waveform"},
 }
 """Registered ids and their default keyword arguments (``gymnasium.make(id, **kwargs)`` overrides them).
 
@@ -24,7 +24,7 @@ range migration of fast vehicles, a trade-off that depends on each track's range
 ``IndoorSubsetWarmup-v1`` is the scenario where one-step lookahead is short-sighted (receiver warm-up,
 ``uwb_env.envs.scheduling``).
 
-``ThroughWall-v0`` is seed 001's handheld radar (one transmitter between two receivers, 0.24 m before a 24 cm brick
+``ThroughWall-v1`` is seed 001's handheld radar (one transmitter between two receivers, 0.24 m before a 24 cm brick
 wall, two persons behind it; ``uwb_env.scenarios.through_wall``): the action is the number of M-sequence periods
 averaged per impulse response (``Discrete(3)``); its signal path is the seed's chain (exponential-averaging
 background, advance normalization, CFAR, ToA association, wall compensation, two-ellipse intersection).

@@ -57,6 +57,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import roots_genlaguerre
 
+from uwb_env.channel.background_mti import (
+    MtiTable,
+    amplitude_fluctuation,
+    envelope_std_s,
+    retained_fraction_history,
+)
 from uwb_env.channel.coverage import blind_zone, in_field_of_view
 from uwb_env.channel.doppler_notch import (
     bistatic_range_rate,
@@ -350,6 +356,7 @@ class ParametricSensor:
         self._link_cache: dict[tuple[int, ...], tuple] = {}  # mean_link's arguments per (tx, rx, waveforms...)
         self._notch = self._static_clutter_tables()
         self._migration = self._migration_tables()
+        self._mti = self._background_mti_table()
 
     def _static_clutter_tables(self) -> tuple[FloatArray, float, FloatArray, FloatArray, FloatArray] | None:
         """The zero-Doppler clutter notch of chirp trains (``uwb_env.channel.doppler_notch``), or None.
@@ -382,6 +389,63 @@ class ParametricSensor:
             [train_doppler_spread_hz(w.config.n_pulses, w.config.pri_s, cl.doppler_spread_hz) for w in chirps]
         )
         return cnr, step, pri, sigma_f, self._wavelengths.copy()
+
+    # ------------------------------------------------------------------------ seed 001's background MTI (through-wall)
+    def _background_mti_table(self) -> MtiTable | None:
+        """g(|rdot|) per waveform of the exponential background's MTI (``uwb_env.channel.background_mti``), or None.
+
+        Active only for a scenario whose signal chain subtracts seed 001's exponential average from coherent echoes
+        (``SignalConfig.coherent_echoes``, ``background = "exponential-coherent"``: ``through-wall``); every other
+        scenario gets None and is unchanged. The retained fraction is the targets' Swerling case's (amplitude
+        fluctuation nu drawn per scan; the first target's case: one Swerling case per scenario here), at the scan
+        period, the average's factor and the envelope's LPF of the chain, for each waveform's Gaussian pulse.
+        """
+        sig = self.cfg.sensing.signal
+        if not (sig.coherent_echoes and sig.background == "exponential-coherent"):
+            return None
+        wfs = self.library.waveforms
+        nu = amplitude_fluctuation(int(self.swerling[0])) if self.swerling.size else 0.0
+        return MtiTable.build(
+            np.array([w.center_freq_hz for w in wfs]),
+            np.array([envelope_std_s(w.rms_bandwidth_hz) for w in wfs]),
+            sig.background_alpha,
+            self.cfg.sensing.scan_period_s,
+            sig.envelope_lpf_s,
+            nu,
+        )
+
+    def mti_history(self, geom: EpisodeGeometry) -> FloatArray:
+        """``(W, S, T, R, K)`` what the exponential background leaves of each echo, from its delay history.
+
+        ``background_mti.retained_fraction_history`` on the episode's bistatic delays (scan 1 over the empty room's
+        reference: 1; the average's start-up and a turning person's range-rate history exact, where
+        :meth:`mti_gain` assumes a constant range-rate); all ones where the MTI is inactive.
+        """
+        W = len(self.library)
+        out = np.ones((W, *geom.bistatic_range.shape))
+        if self._mti is None:
+            return out
+        sig = self.cfg.sensing.signal
+        nu = amplitude_fluctuation(int(self.swerling[0])) if self.swerling.size else 0.0
+        delay = geom.bistatic_range[1:] / SPEED_OF_LIGHT_MPS  # scans 1..S (index 0: the initial state, not sensed)
+        done: dict[tuple[float, float], FloatArray] = {}
+        for w, wf in enumerate(self.library.waveforms):  # the library: a small fixed set (one pulse shape here)
+            key = (float(wf.center_freq_hz), float(envelope_std_s(wf.rms_bandwidth_hz)))
+            if key not in done:
+                done[key] = retained_fraction_history(
+                    delay, sig.background_alpha, key[1], key[0], sig.envelope_lpf_s, nu
+                )
+            out[w, 1:] = done[key]
+        return out
+
+    def mti_gain(self, w: IntArray, range_rate: FloatArray) -> FloatArray:
+        """The echo power the exponential background leaves at bistatic ``range_rate`` [m/s] (1 where inactive).
+
+        ``w`` and ``range_rate`` broadcast (:meth:`_background_mti_table`, the steady state of a constant range-rate).
+        """
+        if self._mti is None:
+            return np.ones(np.broadcast_shapes(np.shape(range_rate), np.shape(w)))
+        return self._mti(w, range_rate)
 
     # Range-walk tables: |range-rate| grid [m/s] (bistatic; vehicles stay far below its end, held beyond it).
     _WALK_STEP_MPS = 0.02
@@ -812,6 +876,10 @@ class ParametricSensor:
             w_all = np.arange(W)[:, None, None, None, None]
             scnr = scnr * self.detection_migration_gain(w_all, geom.range_rate[None])  # the ridge's cells: Pd
             snr_all = snr_all * self.migration_gain(w_all, geom.range_rate[None])  # the peak: accuracy
+        if self._mti is not None:  # seed 001's exponential background leaves g of the echo (through-wall)
+            mti = self.mti_history(geom)  # (W, S, T, R, K), from each echo's delay history
+            scnr = scnr * mti
+            snr_all = snr_all * mti  # the residue is what the ToA measures: R at its SNR too
         target_hit = np.abs(np.sqrt(scnr) + offset[None]) > level[None]
         if self._p_noise > 0.0:  # or a noise peak in the echo's window: drawn after the stream's other draws
             window = rngs.noise.random((S, T, R, K)) < self._p_noise
@@ -1305,14 +1373,27 @@ class ParametricSensor:
         return az[0], ok, snr, pd
 
     def detection_probability_at(
-        self, tx: int, rx: int, positions: FloatArray, waveform: int, rcs_m2: float = 1.0, swerling: int = 1
+        self,
+        tx: int,
+        rx: int,
+        positions: FloatArray,
+        waveform: int,
+        rcs_m2: float = 1.0,
+        swerling: int = 1,
+        velocities: FloatArray | None = None,
     ) -> FloatArray:
         """Pd ``(N,)`` of pair (tx, rx) with ``waveform`` for targets at ``positions`` (N, 2) [m].
 
         The sensor model a tracker or a lookahead may use: the radar equation with walls, range limits, blind zone
         and field of view at the given positions (the rules of the sensing itself), for an assumed mean RCS and
-        Swerling case.
+        Swerling case. With ``velocities`` (N, 2) [m/s] and seed 001's background MTI active (through-wall), at the
+        echo's SNR after the MTI's loss at the pair's bistatic range-rate (:meth:`mti_gain`: 0.12 for a still
+        Swerling III target, 0 for a steady one); elsewhere ``velocities`` changes nothing.
         """
+        if velocities is not None and self._mti is not None:
+            return self.expected_measurements(
+                tx, rx, positions, np.array([int(waveform)]), rcs_m2, swerling, velocities
+            )[0][0]
         return self._mean_link(tx, rx, positions, int(waveform), rcs_m2, swerling)[3][0]
 
     def expected_measurements(
@@ -1339,13 +1420,15 @@ class ParametricSensor:
         waveforms = np.asarray(waveforms, dtype=np.int64).reshape(-1)
         az, ok, snr, pd = self._mean_link(tx, rx, positions, waveforms, rcs_m2, swerling)
         walk = None  # the range-rates (N,) [m/s] with velocities and chirp trains
-        if velocities is not None and (self._notch is not None or self._migration is not None):
+        if velocities is not None and (self._notch is not None or self._migration is not None or self._mti is not None):
             pos = np.ascontiguousarray(positions, dtype=float).reshape(-1, 2)
             vel = np.ascontiguousarray(velocities, dtype=float).reshape(-1, 2)
             lay = self.layout
             # l_t + l_r and (d_t / l_t + d_r / l_r) . v, compiled (numpy's operations, the same numbers)
             rng, rdot = bistatic_range_rate(pos, vel, lay.tx_pos[tx], lay.rx_pos[rx])
             snr = snr * self.notch_gain(waveforms[:, None], tx, rx, rng[None], rdot[None])
+            if self._mti is not None:  # seed 001's exponential background (through-wall): the echo's residue
+                snr = snr * self.mti_gain(waveforms[:, None], rdot[None])
             snr_pd = snr
             if self._migration is not None:  # compiled: every scan asks for it, per pair (sensing.compiled)
                 walk = rdot

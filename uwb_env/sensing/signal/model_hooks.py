@@ -17,10 +17,21 @@ class ParametricModelHooks:
     model: ParametricSensor
 
     def detection_probability_at(
-        self, tx: int, rx: int, positions: FloatArray, waveform: int, rcs_m2: float = 1.0, swerling: int = 1
+        self,
+        tx: int,
+        rx: int,
+        positions: FloatArray,
+        waveform: int,
+        rcs_m2: float = 1.0,
+        swerling: int = 1,
+        velocities: FloatArray | None = None,
     ) -> FloatArray:
-        """The parametric model's Pd (:meth:`ParametricSensor.detection_probability_at`)."""
-        return self.model.detection_probability_at(tx, rx, positions, waveform, rcs_m2, swerling)
+        """The parametric model's Pd (:meth:`ParametricSensor.detection_probability_at`).
+
+        ``velocities`` (N, 2) [m/s]: at the echo's SNR after seed 001's background MTI where it is active
+        (through-wall: its loss at the pair's bistatic range-rate); elsewhere it changes nothing.
+        """
+        return self.model.detection_probability_at(tx, rx, positions, waveform, rcs_m2, swerling, velocities)
 
     def expected_measurements(
         self,

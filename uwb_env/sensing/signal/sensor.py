@@ -78,6 +78,12 @@ ORIGIN_TOLERANCE_M = 0.3  # a ToA within this bistatic range of a target's echo 
 _POSITION_NAMES = ("x", "y")
 
 
+STILL_SAMPLES = 1.5
+"""Step 6's stillness bound of the ToA association in samples of the chain's clock (``toa_association.STILL_S`` is
+1.5 samples of seed 001's 4.5 GHz M-sequence clock): an interval ToA sits on the sample grid and a motionless echo's
+interval start flickers by one sample."""
+
+
 @dataclass(slots=True)
 class SignalEpisode:
     """Per-episode state of the signal path: geometry, the empty-room references, the clutter and background state."""
@@ -95,6 +101,8 @@ class SignalEpisode:
     body_speed: FloatArray | None = None  # (S, K) extended targets: speed [m/s]
     body_phase: FloatArray | None = None  # (S, K) extended targets: gait phase [rad]
     couples: dict[int, tuple[FloatArray, FloatArray, IntArray]] | None = None  # network "couples": tx -> (C, W, O)
+    echo_phase: FloatArray | None = None  # (P, K) coherent_echoes: the targets' carrier phases, held (first scan's)
+    centre_phase: FloatArray | None = None  # (P, K, C) coherent_echoes: the body centres' carrier phases, held
 
 
 @dataclass(frozen=True, slots=True)
@@ -236,6 +244,8 @@ class SignalSensor(ParametricModelHooks):
             beta = np.sort(beta)
             m = float(np.linalg.norm(rx[0] - rx[1])) / SPEED_OF_LIGHT_MPS + self.sig.association_correction_s
             self.couple_groups.append((t, int(idx[0]), int(idx[1]), e, n, beta, m))
+        # step 6's stillness bound: 1.5 samples of this chain's clock (toa_association.STILL_S at seed 001's 4.5 GHz)
+        self.still_s = STILL_SAMPLES / self.fs
 
     def _init_energy_detector(self) -> None:
         """Constants of seed 002's energy detector: BPZF band, bins, noise statistics, absolute threshold xi_0.
@@ -338,6 +348,10 @@ class SignalSensor(ParametricModelHooks):
             rng.signal.standard_normal(episode.fluctuation.shape),
         )
         phase = rng.signal.uniform(0.0, 2.0 * math.pi, (P, K))
+        if sig.coherent_echoes:  # the scan's draw is made (streams unchanged) but the first scan's phase is kept
+            if episode.echo_phase is None:
+                episode.echo_phase = phase
+            phase = episode.echo_phase
         fluct = rcs_fluctuation(self.model.swerling, (self.n_tx, self.n_rx), rng.rcs, self.model._swerling_w)
         noise = rng.signal.standard_normal((P, sig.n_samples))
         if sig.toa_estimator == "energy-detector" and sig.ed_pulse_integration == "noncoherent":
@@ -348,6 +362,10 @@ class SignalSensor(ParametricModelHooks):
                 self.model.swerling, (self.n_tx, self.n_rx, C), rng.rcs, self.model._swerling_w
             )
             body_phase = rng.signal.uniform(0.0, 2.0 * math.pi, (P, K, C))
+            if sig.coherent_echoes:  # each centre keeps its phase: its echo moves with its delay (an MTI sees it)
+                if episode.centre_phase is None:
+                    episode.centre_phase = body_phase
+                body_phase = episode.centre_phase
         active = np.flatnonzero(plan.active_rx[self.pairs[:, 1]])
         w = plan.waveform[self.pairs[active, 0]]
         t_i, r_i = self.pairs[active, 0], self.pairs[active, 1]
@@ -850,7 +868,9 @@ class SignalSensor(ParametricModelHooks):
             toa2 = tr.ranges[tr.toa_row == i2[0]] / SPEED_OF_LIGHT_MPS
             if associate:
                 prev = episode.couples.get(t) if sig.association_completion else None
-                a1, a2, centre, width, order, done = associate_toas(toa1, toa2, m, *(prev or (None, None, None)))
+                a1, a2, centre, width, order, done = associate_toas(
+                    toa1, toa2, m, *(prev or (None, None, None)), still_s=self.still_s
+                )
                 if update:  # step 6 completes from the couples the association found (a completion is not found)
                     episode.couples[t] = (centre[~done], width[~done], order[~done])
             else:
