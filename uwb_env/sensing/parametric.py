@@ -505,16 +505,22 @@ class ParametricSensor:
         return f
 
     def detection_migration_gain(self, w: IntArray, range_rate: FloatArray) -> FloatArray:
-        """The range walk's power gain for detection (Pd): :meth:`migration_gain` G x M, capped at 1.
+        """The range walk's power gain for detection (Pd): :meth:`migration_gain` G x M, capped at 1 -- a fit.
 
         M = 2 D / (c / B_w), the range resolution cells that the walk 2 D = |rdot| T1 (B - 1) spans, where above 1
-        (else G itself). The walked echo is a ridge of M cells at the peak's power G each (the filter compresses the
-        pulses near each delay of the walk), and the signal chain's peak search over that ridge and its truth
-        window detects it as well as one cell at G M: measured on urban-intersection-wideband's 160 MHz chirp at
-        9 dB (Swerling I; ``scripts/calibrate_chirp.py`` geometry), the Pd over |rdot| 8-12 / 12-16 / 16-20 m/s
-        (G -3.0 / -4.1 / -6.4 dB, M 1.3 / 1.8 / 2.3) was that of -1.6 / -2.6 / -3.2 dB, not of G (the model with G
-        alone under-predicted it by 0.09-0.17). The accuracy keeps G (the fit measures one peak:
-        :meth:`walk_factors`). The seed's 40 MHz chirps walk less than one cell (M < 1) below 31 m/s at 10 ms and
+        (else G itself). A walked echo leaves a ridge of delay cells, each integrating about B / M pulses at the
+        peak's power G (so with a Doppler lobe M times wider), and the detector takes the largest peak in the truth
+        window: more near-peak cells with partly independent noise, but one Swerling I amplitude for the whole scan,
+        so the cells miss together when it is small. That is not one cell at G M; G x M is an empirical rule fitted on
+        the chain: on urban-intersection-wideband's 160 MHz chirp at 9 dB (``scripts/calibrate_chirp.py`` geometry)
+        the Pd over |rdot| 8-12 / 12-16 / 16-20 m/s (G -3.0 / -4.1 / -6.4 dB, M 1.3 / 1.8 / 2.3) was that of
+        -1.6 / -2.6 / -3.2 dB (G alone under-predicted it by 0.09-0.17), and over the calibration's geometry the
+        model's Pd matches (0.416 against 0.419). Known error: a Monte Carlo of the ridge (the chain's delay-Doppler
+        grid, correlated noise, Swerling I, largest local maximum in the window) gives effective gains of -1.2 / -2.1
+        / -3.1 / -4.1 / -5.3 dB at M = 1 / 1.5 / 2 / 2.5 / 3, where G x M says -1.8 / -1.8 / -2.5 / -3.3 / -4.1 dB:
+        Pd off by -0.04 to +0.06 (+0.09 at M = 3), the errors of low and high M cancelling in the calibration's mix.
+        A table of that ridge model per waveform would replace the rule. The accuracy keeps G (the fit measures one
+        peak: :meth:`walk_factors`). The seed's 40 MHz chirps walk less than one cell (M < 1) below 31 m/s at 10 ms and
         44 m/s at 7 ms: G there, as before.
         """
         if self._migration is None:
