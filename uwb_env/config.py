@@ -792,6 +792,12 @@ class SignalConfig:
     phase every scan, which no background can cancel); the exponential average is then a moving-target indicator
     that cancels a still target, and the parametric model of the same scenario takes the MTI's loss on the echo's
     SNR at the target's bistatic range-rate (``uwb_env.channel.background_mti``).
+    ``clutter_map`` (``output = "positions"``): each position detection's clutter intensity is a spatial clutter
+    map's density at its position (Musicki & Evans 2004, :mod:`uwb_env.detection.clutter_map`): per cell of
+    ``clutter_map_cell_m`` over the surveillance area, the position detections per scan exponentially averaged with
+    a memory of ``clutter_map_memory_scans`` scans, over the cell's area, floored at
+    ``false_position_density_per_m2``; read before the scan's own detections update it, empty at every episode
+    (off: the constant ``false_position_density_per_m2``).
 
     Seed 004's ToA (``toa_estimator = "hmm"``, :mod:`uwb_env.detection.hmm`): the scan's and the raw empty room's
     energies in bins of ``hmm_bin_s`` from the blind zone's end, the single-capture change statistic O_k per bin
@@ -867,6 +873,10 @@ class SignalConfig:
     network: Literal["nu-tuples", "couples"] = "nu-tuples"
     wall_compensation: bool = False
     coherent_echoes: bool = False
+    clutter_map: bool = False
+    clutter_map_cell_m: float = 0.25
+    clutter_map_memory_scans: float = 50.0
+    clutter_map_count: Literal["all", "still"] = "all"
 
     def __post_init__(self) -> None:
         for name in (
@@ -971,6 +981,16 @@ class SignalConfig:
                 self.coherent_echoes,
                 "False unless background = 'exponential-coherent'",
             )
+        _choice("SignalConfig", "clutter_map", self.clutter_map, (True, False))
+        _positive("SignalConfig", "clutter_map_cell_m", self.clutter_map_cell_m)
+        _finite("SignalConfig", "clutter_map_memory_scans", self.clutter_map_memory_scans)
+        if self.clutter_map_memory_scans < 1.0:
+            _fail("SignalConfig", "clutter_map_memory_scans", self.clutter_map_memory_scans, ">= 1 (scans)")
+        _choice("SignalConfig", "clutter_map_count", self.clutter_map_count, ("all", "still"))
+        if self.clutter_map_count == "still" and self.network != "couples":
+            _fail("SignalConfig", "clutter_map_count", self.clutter_map_count, "'all' unless network = 'couples'")
+        if self.clutter_map and self.output != "positions":
+            _fail("SignalConfig", "clutter_map", self.clutter_map, "False unless output = 'positions'")
 
 
 @dataclass(frozen=True, slots=True)

@@ -41,6 +41,7 @@ from uwb_env.detection import (
     rectified_difference,
     square_law_envelope,
 )
+from uwb_env.detection.clutter_map import ClutterMap
 from uwb_env.detection.energy_detector import (
     accumulated_noise_energy,
     bin_energies,
@@ -103,6 +104,8 @@ class SignalEpisode:
     couples: dict[int, tuple[FloatArray, FloatArray, IntArray]] | None = None  # network "couples": tx -> (C, W, O)
     echo_phase: FloatArray | None = None  # (P, K) coherent_echoes: the targets' carrier phases, held (first scan's)
     centre_phase: FloatArray | None = None  # (P, K, C) coherent_echoes: the body centres' carrier phases, held
+    clutter_map: ClutterMap | None = None  # signal.clutter_map: the position detections' clutter map, this episode's
+    map_previous: tuple[FloatArray, IntArray] | None = None  # clutter_map_count "still": last scan's couples (r, tx)
 
 
 @dataclass(frozen=True, slots=True)
@@ -313,6 +316,13 @@ class SignalSensor(ParametricModelHooks):
             reference_toa=toa,
             reference_peak=self._peak_near(env, toa),
         )
+        if sig.clutter_map:  # an empty map every episode (Musicki's map learns the episode's own clutter)
+            episode.clutter_map = ClutterMap.over(
+                self.layout.area,
+                sig.clutter_map_cell_m,
+                sig.clutter_map_memory_scans,
+                sig.false_position_density_per_m2,
+            )
         if sig.target_model == "extended":
             # gait of every scan: heading from the velocity, phase integrated from the speed (Boulic's cycle), a
             # random initial phase per target from the RCS stream (drawn once per episode, whatever the plans)
@@ -747,7 +757,7 @@ class SignalSensor(ParametricModelHooks):
             return self.ranges(tr, plan, time_s)
         if self.sig.network == "couples":
             return (self.localize_couples(episode, k, tr, plan, time_s),)
-        return (self.localize(tr, plan, time_s),)
+        return (self.localize(tr, plan, time_s, episode),)
 
     def ranges(self, tr: ScanTrace, plan: ScanPlan, time_s: float) -> tuple[Detections, ...]:
         """The in-sensor ToAs as per-pair bistatic-range detections (no network fusion; the tracker fuses them).
@@ -787,8 +797,10 @@ class SignalSensor(ParametricModelHooks):
             )
         return tuple(out)
 
-    def localize(self, tr: ScanTrace, plan: ScanPlan, time_s: float) -> Detections:
-        """The network chain on one scan's ToAs (seed 000 section V)."""
+    def localize(
+        self, tr: ScanTrace, plan: ScanPlan, time_s: float, episode: SignalEpisode | None = None
+    ) -> Detections:
+        """The network chain on one scan's ToAs (seed 000 section V); ``episode``: its clutter map, if any."""
         sig, lay = self.sig, self.layout
         pair = tr.pairs[tr.toa_row]
         z, R, used = locate(
@@ -810,17 +822,36 @@ class SignalSensor(ParametricModelHooks):
             dtype=np.int64,
         )
         peak = np.array([float(tr.peak[u].mean()) for u in used])
-        return self._positions(z, R, peak, origin, plan, time_s)
+        return self._positions(z, R, peak, origin, plan, time_s, episode, observed=tr.pairs.size > 0)
 
     def _positions(
-        self, z: FloatArray, R: FloatArray, snr: FloatArray, origin: IntArray, plan: ScanPlan, time_s: float
+        self,
+        z: FloatArray,
+        R: FloatArray,
+        snr: FloatArray,
+        origin: IntArray,
+        plan: ScanPlan,
+        time_s: float,
+        episode: SignalEpisode | None = None,
+        observed: bool = True,
+        map_weight: FloatArray | None = None,
     ) -> Detections:
         """The network's record of fused 2-D positions ``z (n, 2)``, covariances ``R (n, 2, 2)`` (``rx = -1``).
 
-        Clutter intensity ``false_position_density_per_m2`` over the surveillance area.
+        Clutter intensity ``false_position_density_per_m2`` over the surveillance area; with ``signal.clutter_map``
+        (and the ``episode``'s map) each detection's is the map's density at its position, read before the map
+        takes this scan's detections (``observed``: the scan looked at the area at all; a scan with every receiver
+        off neither adds nor forgets). The expected false alarms stay the prior's.
         """
         density = self.sig.false_position_density_per_m2
         n = z.shape[0]
+        cmap = episode.clutter_map if episode is not None else None
+        if cmap is not None:
+            intensity = cmap.density(z)
+            if observed:
+                cmap.update(z, map_weight)
+        else:
+            intensity = np.full(n, density)
         return Detections(
             tx=0,
             rx=-1,
@@ -831,7 +862,7 @@ class SignalSensor(ParametricModelHooks):
             snr=snr,
             origin=origin,
             measurement_names=_POSITION_NAMES,
-            clutter_intensity=np.full(n, density),
+            clutter_intensity=intensity,
             expected_false_alarms=density * self._area_m2,
         )
 
@@ -905,7 +936,7 @@ class SignalSensor(ParametricModelHooks):
     ) -> Detections:
         """Seed 001's network chain (``network = "couples"``): one record of the couples' 2-D positions."""
         sig = self.sig
-        p, _, txi, origin = self.couples(episode, k, tr, associate=sig.toa_association)
+        p, r, txi, origin = self.couples(episode, k, tr, associate=sig.toa_association)
         R = np.zeros((p.shape[0], 2, 2))
         for t, p1, p2, *_ in self.couple_groups:  # transmitters: one or a few
             sel = txi == t
@@ -914,4 +945,34 @@ class SignalSensor(ParametricModelHooks):
                 R[sel] = couple_covariance(
                     p[sel], self.layout.tx_pos[t], rx, self.range_std_m**2, sig.couple_common_std_m**2
                 )
-        return self._positions(p, R, np.zeros(p.shape[0]), origin, plan, time_s)
+        observed = any(np.isin([p1, p2], tr.pairs).all() for _, p1, p2, *_ in self.couple_groups)
+        weight = None
+        if episode.clutter_map is not None and sig.clutter_map_count == "still":
+            weight = self._still_couples(episode, r, txi, observed)
+        return self._positions(
+            p, R, np.zeros(p.shape[0]), origin, plan, time_s, episode, observed=observed, map_weight=weight
+        )
+
+    def _still_couples(self, episode: SignalEpisode, r: FloatArray, txi: IntArray, observed: bool) -> FloatArray:
+        """``(L,)`` 1 for a couple that has not moved since the previous scan, else 0 (``clutter_map_count = "still"``).
+
+        Still: both its ranges within step 6's stillness bound (``STILL_SAMPLES`` of the chain's clock, as bistatic
+        range) of one couple of the same transmitter in the previous observed scan. A static residue of the
+        background subtraction sits on the sample grid and flickers by at most a sample; a walking person's bistatic
+        range moves ~1.8 samples per scan (0.8 m/s radially), and its ranges' errors (~0.13 m, two samples) rarely
+        repeat both within the bound. The sensor's own stand-in for Musicki's refinement (the tracker's association
+        probabilities do not come back to the sensor).
+        """
+        bound = self.still_s * SPEED_OF_LIGHT_MPS
+        prev = episode.map_previous
+        still = np.zeros(r.shape[0])
+        if prev is not None:
+            pr, pt = prev
+            for t in np.unique(txi).tolist():  # transmitters: one or a few
+                a, b = r[txi == t], pr[pt == t]
+                if a.size and b.size:
+                    near = (np.abs(a[:, None, :] - b[None]) <= bound).all(axis=-1).any(axis=1)
+                    still[txi == t] = near
+        if observed:
+            episode.map_previous = (r.copy(), txi.copy())
+        return still
