@@ -832,6 +832,7 @@ def main() -> None:
     figures(out, res["pd"]["curves"], res["notch"])
     cmd = "python scripts/calibrate_chirp.py" + ("" if args.scale == 1.0 else f" --scale {args.scale}")
     cmd += "" if args.pd_scans == 2000 else f" --pd-scans {args.pd_scans}"
+    cmd += "" if args.seed == 0 else f" --seed {args.seed}"
     cmd += "" if args.scenario == "urban-intersection" else f" --scenario {args.scenario} --out {args.out}"
     report(out, res, cmd, elapsed)
     slim = {k: v for k, v in res.items() if k != "notch"}
