@@ -1042,6 +1042,12 @@ class SensingConfig:
     the detection's own uncompensated position estimate (``ParametricSensor._wall_compensation``): the parametric
     counterpart of the signal path's ``SignalConfig.wall_compensation`` (seed 001's wall-effect compensation).
     Off (the default), a detection keeps the walls' excess delay as a positive range bias.
+
+    ``detection_swerling`` (parametric path): the Swerling case of every target's RCS draws in the parametric
+    detection test (``ParametricSensor.new_episode``), in place of each ``TargetConfig.swerling``, which the signal
+    path's echoes (and the background MTI's retained fraction) keep reading: a detection statistic fitted on a signal
+    chain whose decision is not a single-cell test of the target's own fluctuation (``through-wall``: seed 001's
+    interval ToA over an extended body). None (the default): each target's own case.
     """
 
     fidelity: Literal["parametric", "signal"] = "parametric"
@@ -1060,6 +1066,7 @@ class SensingConfig:
     ghost_range_rate_std_mps: float = 2.5
     min_range_std_m: float = 5e-5
     compensate_walls: bool = False
+    detection_swerling: int | None = None
     clutter: ClutterConfig = field(default_factory=ClutterConfig)
     signal: SignalConfig = field(default_factory=SignalConfig)
 
@@ -1082,6 +1089,8 @@ class SensingConfig:
         _in_range("SensingConfig", "clutter_residue_looks", self.clutter_residue_looks, 0.0, 100.0)
         _bool("SensingConfig", "measure_doa", self.measure_doa)
         _bool("SensingConfig", "compensate_walls", self.compensate_walls)
+        if self.detection_swerling is not None:
+            _choice("SensingConfig", "detection_swerling", self.detection_swerling, (0, 1, 3))
         _instance("SensingConfig", "clutter", self.clutter, ClutterConfig, "a ClutterConfig")
         _instance("SensingConfig", "signal", self.signal, SignalConfig, "a SignalConfig")
 

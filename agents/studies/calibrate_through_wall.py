@@ -24,10 +24,16 @@ seeds each. Per scan, receiver and person (the parametric pair's bistatic range,
 The cells are binned by the person's mean integrated SNR (the parametric radar constant times the geometry's unit SNR,
 walls' loss included) times what seed 001's exponential background leaves of the echo at the person's bistatic
 range-rate history (``ParametricSensor.mti_history``, ``uwb_env.channel.background_mti``: 0.12 for a Swerling III person
-standing still, ~1.06 while walking), per waveform. The parametric Pd is Swerling III at ``false_alarm_probability`` and
-the gain ``detection_gain_db`` (and each waveform's own), fitted here by grid search to the largest |Pd difference| over
-the bins holding at least ``MIN_CELLS`` cells: one Pfa for all, one gain per waveform. The false rate per scan and pair
-gives ``clutter.density_per_m2`` (the parametric false count is density x the pair's gate area, linear in it).
+standing still, ~1.06 while walking), per waveform. The parametric Pd is the Swerling case ``--swerling`` (the
+scenario's ``sensing.detection_swerling``: I) at the Pfa of the chain's decision, the interval test's binomial tail
+P(Bin(W_p, cfar_pfa) >= T_LIM) (``through_wall.interval_test_pfa``, 1.25e-5; ``--log-pfa`` searches a grid instead),
+with the gain ``detection_gain_db`` (and each waveform's own) and the clutter residue (ratio, looks) fitted by grid
+search (``--criterion``: the binomial likelihood of the signal's hits among the forms whose largest |Pd difference|
+holds within ``--max-dpd``, the default, or the largest |Pd difference|) over the bins holding at least ``MIN_CELLS``
+cells: one Pfa and residue for all, one gain per waveform. ``--compare`` fits a second form (by default the previous
+one, Swerling III at the CFAR's Pfa 1e-2) on the same cells and reports both forms' likelihoods. ``--cells`` keeps the
+signal path's cells in a file (they do not depend on the parametric constants) for the next run. The false rate per scan
+and pair gives ``clutter.density_per_m2`` (the parametric false count is density x the pair's gate area, linear in it).
 
 The check: parametric and signal Pd within 0.05 (every populated bin), false rates within 20 %, range spread within
 30 % (the parametric independent std against the chain's per-receiver total, hypot(independent, common): the
@@ -42,6 +48,7 @@ import dataclasses
 import functools
 import math
 import operator
+import pickle
 import sys
 from pathlib import Path
 
@@ -49,6 +56,7 @@ import numpy as np
 
 from uwb_env import scenarios
 from uwb_env.rng import RngStreams
+from uwb_env.scenarios.through_wall import interval_test_pfa
 from uwb_env.scene import sample_truth
 from uwb_env.sensing import ParametricSensor, ScanPlan
 from uwb_env.sensing.parametric import residue_quadrature
@@ -226,14 +234,46 @@ def main() -> None:
     ap.add_argument("--runs", type=int, default=2)
     ap.add_argument("--power-db", nargs="+", type=float, default=[0.0, -20.0, -30.0, -35.0, -40.0, -45.0, -50.0, -60.0])
     ap.add_argument("--tracker-runs", type=int, default=12, help="runs of the tracker check (parametric path)")
-    ap.add_argument("--log-pfa", nargs=3, type=float, default=(-8.0, -1.0, 0.25), metavar=("FROM", "TO", "STEP"))
+    ap.add_argument(
+        "--log-pfa",
+        nargs=3,
+        type=float,
+        default=None,
+        metavar=("FROM", "TO", "STEP"),
+        help="search the Pfa over this grid of log10 (default: the interval test's binomial tail, fixed)",
+    )
+    ap.add_argument("--swerling", type=int, choices=(0, 1, 3), default=None, help="the fitted form's Swerling case")
+    ap.add_argument(
+        "--criterion",
+        choices=("loglik", "max"),
+        default="loglik",
+        help="loglik: the likeliest form whose |Pd difference| holds within --max-dpd; max: the smallest largest one",
+    )
+    ap.add_argument("--max-dpd", type=float, default=0.05, help="the check's largest |Pd difference| per bin")
+    ap.add_argument(
+        "--compare",
+        nargs=2,
+        type=float,
+        default=(3.0, 1e-2),
+        metavar=("SWERLING", "PFA"),
+        help="a second form fitted on the same cells (default: the previous Swerling III at Pfa 1e-2)",
+    )
+    ap.add_argument("--model-cells", type=int, default=40, help="run 0's cells per bin the model's Pd averages over")
+    ap.add_argument("--cells", type=Path, default=None, help="a file keeping the signal path's cells across runs")
     ap.add_argument(
         "--min-separation",
         type=float,
         default=MIN_SEPARATION_M,
         help="the Pd fit's cells: a person at least this far from the other's bistatic range [m]",
     )
-    ap.add_argument("--log-kappa", nargs=2, type=float, default=(-9.0, -5.0), metavar=("FROM", "TO"))
+    ap.add_argument(
+        "--log-kappa",
+        nargs="+",
+        type=float,
+        default=(-9.0, -5.0),
+        metavar="FROM TO [STEP]",
+        help="the residue ratio's grid of log10 (step 0.25 unless given; 0 is always tried)",
+    )
     ap.add_argument("--looks", nargs="+", type=float, default=[1.0, 2.0, 4.0, 8.0])
     ap.add_argument("--gain-db", nargs=3, type=float, default=(-10.0, 10.0, 0.5), metavar=("FROM", "TO", "STEP"))
     args = ap.parse_args()
@@ -241,7 +281,15 @@ def main() -> None:
     cfg = scenarios.get("through-wall")
     names = [wf.name for wf in cfg.waveforms]
     W = len(names)
-    sig = {w: [signal_cells(r, w, p, {}) for p in args.power_db for r in range(args.runs)] for w in range(W)}
+    key = (args.runs, tuple(args.power_db))
+    sig = None
+    if args.cells is not None and args.cells.exists():
+        stored = pickle.loads(args.cells.read_bytes())
+        sig = stored["sig"] if stored.get("key") == key else None
+    if sig is None:
+        sig = {w: [signal_cells(r, w, p, {}) for p in args.power_db for r in range(args.runs)] for w in range(W)}
+        if args.cells is not None:
+            args.cells.write_bytes(pickle.dumps({"key": key, "sig": sig}))
     par = {w: [parametric_cells(r, w, p, {}) for p in args.power_db for r in range(args.runs)] for w in range(W)}
 
     # false detections per scan and receiver; their density per metre gives the gate's chance hits
@@ -286,45 +334,109 @@ def main() -> None:
         f0[w] = np.array([cf0[d["b"] == q].mean() for q in d["keys"]])
         d["pd"] = np.clip((d["rate"] - f0[w]) / (1.0 - f0[w]), 0.0, 1.0)
         d["dp"] = cat(sig[w], "dp")[d["sel"]]
-        # the model's cells: run 0's (every run has the same walks, so the same SNRs), at most 40 per bin
+        # the model's cells: run 0's (every run has the same walks, so the same SNRs), at most --model-cells per bin
         keep = np.zeros(d["b"].size, bool)
         for q in d["keys"]:
             idx = np.flatnonzero((d["b"] == q) & (d["run"] == 0))
-            keep[idx[np.linspace(0, idx.size - 1, min(idx.size, 40)).astype(int)]] = True
+            keep[idx[np.linspace(0, idx.size - 1, min(idx.size, args.model_cells)).astype(int)]] = True
         d["m_snr"], d["m_dp"], d["m_b"] = d["snr"][keep], d["dp"][keep], d["b"][keep]
         bins[w] = d
 
-    pfas = 10.0 ** np.arange(args.log_pfa[0], args.log_pfa[1] + 1e-9, args.log_pfa[2])
+    sig_cfg = cfg.sensing.signal
+    chain_pfa = interval_test_pfa(sig_cfg.toa_interval_samples, sig_cfg.toa_interval_threshold, sig_cfg.cfar_pfa)
+    if args.log_pfa is None:
+        pfas = np.array([chain_pfa])
+    else:
+        pfas = 10.0 ** np.arange(args.log_pfa[0], args.log_pfa[1] + 1e-9, args.log_pfa[2])
+    swerling = args.swerling
+    if swerling is None:
+        swerling = cfg.sensing.detection_swerling
+        swerling = cfg.targets[0].swerling if swerling is None else swerling
     gains = np.arange(args.gain_db[0], args.gain_db[1] + 1e-9, args.gain_db[2])
-    kappas = np.concatenate([[0.0], 10.0 ** np.arange(args.log_kappa[0], args.log_kappa[1] + 1e-9, 0.25)])
+    if len(args.log_kappa) not in (2, 3):
+        raise SystemExit("--log-kappa takes FROM TO [STEP]")
+    k_step = args.log_kappa[2] if len(args.log_kappa) == 3 else 0.25
+    kappas = np.concatenate([[0.0], 10.0 ** np.arange(args.log_kappa[0], args.log_kappa[1] + 1e-9, k_step)])
     quads = {m: residue_quadrature(m) for m in args.looks}
-    log_x = np.linspace(-4.0, 12.0, 3201)  # Pd_SW3 tabulated over log10 SNR per Pfa: interpolated in the search
-    tables = {pfa: detection_probability(10.0**log_x, pfa, 3) for pfa in pfas}
+    log_x = np.linspace(-4.0, 12.0, 3201)  # Pd tabulated over log10 SNR per (Pfa, case): interpolated in the search
+    tables: dict[tuple[float, int], np.ndarray] = {}
 
-    def model_bins(w: int, pfa: float, g_db, kappa: float, looks: float) -> np.ndarray:
-        """``(G, bins)`` parametric Swerling III Pd with the residue, averaged over each bin's cells (own SNRs)."""
+    def model_bins(w: int, pfa: float, g_db, kappa: float, looks: float, case: int) -> np.ndarray:
+        """``(G, bins)`` parametric Pd (Swerling ``case``) with the residue, averaged over each bin's cells."""
+        if (pfa, case) not in tables:
+            tables[pfa, case] = detection_probability(10.0**log_x, pfa, case)
         d = bins[w]
         x, wq = quads[looks] if kappa > 0.0 else (np.ones(1), np.ones(1))
         scnr = d["m_snr"][:, None] / (1.0 + kappa * d["m_dp"][:, None] * x[None])  # (C, Q)
         lg = np.log10(scnr)[None] + np.atleast_1d(g_db)[:, None, None] / 10.0
-        pd = np.interp(lg, log_x, tables[pfa]) @ wq  # (G, C)
+        pd = np.interp(lg, log_x, tables[pfa, case]) @ wq  # (G, C)
         return np.stack([pd[:, d["m_b"] == q].mean(axis=1) for q in d["keys"]], axis=1)
 
-    best = None
-    for looks in args.looks:
-        for kappa in kappas:
-            if kappa == 0.0 and looks != args.looks[0]:
-                continue
-            for pfa in pfas:
-                errs, gsel = [], []
-                for w in range(W):
-                    ok = bins[w]["n"] >= MIN_CELLS
-                    e = np.max(np.abs(model_bins(w, pfa, gains, kappa, looks) - bins[w]["pd"][None])[:, ok], axis=1)
-                    gsel.append(float(gains[int(np.argmin(e))]))
-                    errs.append(float(np.min(e)))
-                if best is None or max(errs) < best[0] - 1e-12:
-                    best = (max(errs), pfa, gsel, errs, kappa, looks)
-    worst, pfa, gsel, errs, kappa, looks = best
+    def neg_loglik(w: int, q: np.ndarray) -> np.ndarray:
+        """``(G,)`` -log likelihood of the signal's hits (Pd x cells per bin, bins of >= MIN_CELLS) under ``q``."""
+        d = bins[w]
+        ok = d["n"] >= MIN_CELLS
+        n, h = d["n"][ok], d["pd"][ok] * d["n"][ok]
+        q = np.clip(q[:, ok], 1e-12, 1.0 - 1e-12)
+        return -np.sum(h * np.log(q) + (n - h) * np.log1p(-q), axis=1)
+
+    def fit(case: int, pfa_grid: np.ndarray) -> tuple:
+        """(criterion, Pfa, gains, max |dPd| per waveform, kappa, looks, -loglik per waveform) of the best form."""
+        best = None
+        for looks in args.looks:
+            for kappa in kappas:
+                if kappa == 0.0 and looks != args.looks[0]:
+                    continue
+                for pfa in pfa_grid:
+                    errs, gsel, nll = [], [], []
+                    for w in range(W):
+                        ok = bins[w]["n"] >= MIN_CELLS
+                        m = model_bins(w, pfa, gains, kappa, looks, case)
+                        e = np.max(np.abs(m - bins[w]["pd"][None])[:, ok], axis=1)
+                        ll = neg_loglik(w, m)
+                        if args.criterion == "loglik" and np.any(e <= args.max_dpd):  # the likeliest that holds
+                            g = int(np.argmin(np.where(e <= args.max_dpd, ll, np.inf)))
+                        else:
+                            g = int(np.argmin(ll if args.criterion == "loglik" else e))
+                        gsel.append(float(gains[g]))
+                        errs.append(float(e[g]))
+                        nll.append(float(ll[g]))
+                    # loglik: a form that holds every waveform within --max-dpd before one that does not
+                    score = (max(errs) > args.max_dpd, sum(nll)) if args.criterion == "loglik" else (False, max(errs))
+                    if best is None or score < best[0]:
+                        best = (score, pfa, gsel, errs, kappa, looks, nll)
+        return best
+
+    _, pfa, gsel, errs, kappa, looks, nll = fit(swerling, pfas)
+    worst = max(errs)
+    c_case, c_pfa = int(args.compare[0]), float(args.compare[1])
+    _, _, c_gsel, c_errs, c_kappa, c_looks, c_nll = fit(c_case, np.array([c_pfa]))
+
+    def shadow(w: int, pd: np.ndarray) -> str:
+        """The cells' mean Pd over the bins below 6 dB of SNR (``pd`` per bin), as text."""
+        low = (bins[w]["keys"] + 1) * SNR_STEP_DB <= 6.0
+        n = bins[w]["n"][low]
+        return f"{float(np.sum(n * pd[low]) / max(n.sum(), 1)):.3f} ({int(n.sum())} cells)"
+
+    # the scenario's own constants on the same cells (its gain, residue, Pfa and case)
+    sc = cfg.sensing
+    sc_case = sc.detection_swerling if sc.detection_swerling is not None else cfg.targets[0].swerling
+    sc_nll = [
+        float(
+            neg_loglik(
+                w,
+                model_bins(
+                    w,
+                    sc.false_alarm_probability,
+                    sc.detection_gain_db + cfg.waveforms[w].detection_gain_db,
+                    sc.clutter_residue_ratio,
+                    sc.clutter_residue_looks if sc.clutter_residue_ratio > 0.0 else args.looks[0],
+                    sc_case,
+                ),
+            )[0]
+        )
+        for w in range(W)
+    ]
     # the clutter density that gives the signal's mean false rate at the scenario's power (linear in the density)
     # one density for every waveform (the parametric false alarms are drawn once for all of them): the false rate
     # whose largest relative error over the waveforms' signal rates is smallest, 2 lo hi / (lo + hi)
@@ -344,15 +456,41 @@ def main() -> None:
         f"(scan, receiver) cell is detected with a ToA within {GATE_M} m of its bistatic range (signal: less the "
         "false ToAs' chance hits in the gate).",
         "",
-        f"* fitted parametric detector (Swerling III): Pfa {pfa:.3g}, clutter residue ratio {kappa:.3g} of "
+        f"* the chain's decision, the interval ToA test (T_LIM = {sig_cfg.toa_interval_threshold} of W_p = "
+        f"{sig_cfg.toa_interval_samples} samples above the CFAR's threshold of design Pfa {sig_cfg.cfar_pfa:g}): on "
+        f"noise alone P(Bin({sig_cfg.toa_interval_samples}, {sig_cfg.cfar_pfa:g}) >= "
+        f"{sig_cfg.toa_interval_threshold}) = {chain_pfa:.3g} per window",
+        f"* fitted parametric detector (Swerling {'0' if swerling == 0 else 'I' if swerling == 1 else 'III'}, "
+        f"criterion {args.criterion}): Pfa {pfa:.3g}, clutter residue ratio {kappa:.3g} of "
         f"{looks:g} looks, gains "
         + ", ".join(f"{names[w]} {gsel[w]:+g} dB" for w in range(W))
         + f"; largest |Pd difference| per waveform over bins of >= {MIN_CELLS} cells: "
         + ", ".join(f"{names[w]} {errs[w]:.3f}" for w in range(W))
-        + f" (scenario's: Pfa {cfg.sensing.false_alarm_probability:g}, residue {cfg.sensing.clutter_residue_ratio:g} "
-        f"of {cfg.sensing.clutter_residue_looks:g} looks, gain {cfg.sensing.detection_gain_db:g} dB, "
+        + "; -log likelihood of the signal's hits: "
+        + ", ".join(f"{names[w]} {nll[w]:.0f}" for w in range(W))
+        + f" (sum {sum(nll):.0f})"
+        + f" (scenario's: Pfa {cfg.sensing.false_alarm_probability:.3g}, Swerling {sc_case}, residue "
+        f"{cfg.sensing.clutter_residue_ratio:g} of {cfg.sensing.clutter_residue_looks:g} looks, gain "
+        f"{cfg.sensing.detection_gain_db:g} dB, "
         + ", ".join(f"{wf.name} {wf.detection_gain_db:g} dB" for wf in cfg.waveforms)
-        + ")",
+        + "; -log likelihood "
+        + ", ".join(f"{names[w]} {sc_nll[w]:.0f}" for w in range(W))
+        + f", sum {sum(sc_nll):.0f})",
+        f"* compared form (Swerling {c_case}, Pfa {c_pfa:.3g}, fitted the same way): residue {c_kappa:.3g} of "
+        f"{c_looks:g} looks, gains "
+        + ", ".join(f"{names[w]} {c_gsel[w]:+g} dB" for w in range(W))
+        + "; largest |Pd difference| "
+        + ", ".join(f"{names[w]} {c_errs[w]:.3f}" for w in range(W))
+        + "; -log likelihood "
+        + ", ".join(f"{names[w]} {c_nll[w]:.0f}" for w in range(W))
+        + f" (sum {sum(c_nll):.0f}; the fitted form's less by {sum(c_nll) - sum(nll):.0f})",
+        "* mean Pd of the cells below 6 dB (the shadow: signal / fitted / compared): "
+        + ", ".join(
+            f"{names[w]} {shadow(w, bins[w]['pd'])} / "
+            f"{shadow(w, model_bins(w, pfa, gsel[w], kappa, looks, swerling)[0])}"
+            f" / {shadow(w, model_bins(w, c_pfa, c_gsel[w], c_kappa, c_looks, c_case)[0])}"
+            for w in range(W)
+        ),
         "* false detections per scan and receiver at the scenario's power: "
         + ", ".join(f"{names[w]} signal {s_false[w]:.3f} / parametric {p_false[w]:.3f}" for w in range(W))
         + f" (the signal's chance hits in the {2 * GATE_M:g} m gate, removed from its Pd: up to "
@@ -374,7 +512,7 @@ def main() -> None:
         f"{s_tot:.3f} m; parametric mean {q_mean:+.3f} m, independent {q_ind:.3f} m, common {q_com:.3f} m, per "
         f"receiver {q_tot:.3f} m",
     ]
-    pd_ok = worst <= 0.05
+    pd_ok = worst <= args.max_dpd
     near = []
     for w in range(W):  # the persons nearer than --min-separation in bistatic range, at the scenario's power
         sn = [sig[w][c] for c in nominal]
@@ -425,7 +563,7 @@ def main() -> None:
         "| --- | --- | --- | --- | --- | --- |",
     ]
     for w in range(W):
-        m = model_bins(w, pfa, gsel[w], kappa, looks)[0]
+        m = model_bins(w, pfa, gsel[w], kappa, looks, swerling)[0]
         for q, n, a, b in zip(bins[w]["keys"], bins[w]["n"], bins[w]["pd"], m, strict=True):
             sp = sim_pd[w].get(int(q))
             lines.append(
@@ -446,7 +584,7 @@ def main() -> None:
         (line,) = ax.plot(x[ok], d["pd"][ok], "o", ms=4, label=f"{names[w]} signal")
         ax.plot(
             x[ok],
-            model_bins(w, pfa, gsel[w], kappa, looks)[0][ok],
+            model_bins(w, pfa, gsel[w], kappa, looks, swerling)[0][ok],
             "-",
             color=line.get_color(),
             lw=1,
@@ -456,7 +594,7 @@ def main() -> None:
         ax.plot([(q + 0.5) * SNR_STEP_DB for q, _ in sp], [v[1] for _, v in sp], "x", color=line.get_color(), ms=5)
     ax.set_xlabel("person's mean integrated SNR [dB]")
     ax.set_ylabel("detection probability per receiver")
-    ax.set_title(f"through-wall: Pfa {pfa:.2g}; x parametric as simulated")
+    ax.set_title(f"through-wall: Swerling {swerling}, Pfa {pfa:.2g}; x parametric as simulated")
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
     fig.tight_layout()

@@ -13,7 +13,7 @@ ENV_IDS = {
         "subset_size": 3,
         "receiver_warmup": True,
     },
-    "uwb_env/ThroughWall-v1": {"scenario": "through-wall", "action_kind": "waveform"},
+    "uwb_env/ThroughWall-v2": {"scenario": "through-wall", "action_kind": "waveform"},
 }
 """Registered ids and their default keyword arguments (``gymnasium.make(id, **kwargs)`` overrides them).
 
@@ -24,12 +24,18 @@ range migration of fast vehicles, a trade-off that depends on each track's range
 ``IndoorSubsetWarmup-v1`` is the scenario where one-step lookahead is short-sighted (receiver warm-up,
 ``uwb_env.envs.scheduling``).
 
-``ThroughWall-v1`` is seed 001's handheld radar (one transmitter between two receivers, 0.24 m before a 24 cm brick
+``ThroughWall-v2`` is seed 001's handheld radar (one transmitter between two receivers, 0.24 m before a 24 cm brick
 wall, two persons behind it; ``uwb_env.scenarios.through_wall``): the action is the number of M-sequence periods
 averaged per impulse response (``Discrete(3)``); its signal path is the seed's chain (exponential-averaging
 background, advance normalization, CFAR, ToA association, wall compensation, two-ellipse intersection).
 
 Version history:
+    * ``ThroughWall-v2``: the parametric detector is the chain's interval ToA test's: Pfa the binomial tail
+      P(Bin(15, 1e-2) >= 4) = 1.25e-5 per window (``through_wall.interval_test_pfa``; was the CFAR's per-sample
+      1e-2) and Swerling I persons in the parametric detection test only (``SensingConfig.detection_swerling``; the
+      signal path's scattering centres stay Swerling III), gain and residue refitted by binomial likelihood
+      (results/calibration-through-wall). Dynamics and rewards changed (parametric path), spaces unchanged, hence the
+      bump.
     * ``ThroughWall-v1``: the signal path's echoes keep their carrier phase (``SignalConfig.coherent_echoes``), so seed
       001's exponential background cancels a still target (``uwb_env.channel.background_mti``); the parametric model
       takes that loss on the echo's SNR and is recalibrated on the chain (results/calibration-through-wall: max |dPd|

@@ -268,6 +268,10 @@ class ParametricSensor:
         self._beams = receiver_beams(cfg, lay, self.library)
         self.rcs_mean = np.array([t.rcs_mean_m2 for t in cfg.targets])
         self._swerling_w = swerling_weights(self.swerling)
+        # the detection test's own Swerling case (SensingConfig.detection_swerling; None: each target's, as above):
+        # the signal path and the MTI's nu keep reading ``self.swerling``, only new_episode's RCS draws take this
+        ds = cfg.sensing.detection_swerling
+        self._detect_swerling_w = self._swerling_w if ds is None else swerling_weights(np.full_like(self.swerling, ds))
         # Radar constant per (waveform, tx, rx): the energy and spectrum of the waveform, the nodes' gains.
         self.radar_constant = self._per_link(
             lambda wf, tx, rx, _: bistatic_radar_constant(
@@ -803,7 +807,7 @@ class ParametricSensor:
         col = _columns(m)
         W = len(self.library)
         # Targets: RCS, detection noise (2), azimuth noise (1), measurement noise (m) for every cell.
-        fluct = rcs_fluctuation(self.swerling, (S, T, R), rngs.rcs, self._swerling_w)
+        fluct = rcs_fluctuation(self.swerling, (S, T, R), rngs.rcs, self._detect_swerling_w)
         fading = np.where(geom.covered, geom.unit_snr * fluct, 0.0)
         noise = rngs.noise.standard_normal((S, 3 + m, T, R, K))
         level2 = self.threshold - 0.5 * noise[:, 1] ** 2
