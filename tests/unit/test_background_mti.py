@@ -127,20 +127,26 @@ def _chain_residue(
     return np.array(out)
 
 
-@pytest.mark.parametrize("rdot", [0.0, 0.05, 0.1, 0.2, 1.6])
-def test_the_chains_residue_of_a_coherent_echo_matches_the_model(rdot):
-    """Eight carrier phases (the model averages over the phase): within 3 standard errors of their mean + 0.03."""
+def _model_residue(rdot: float, fluctuation: float = 0.0) -> float:
+    """``retained_fraction`` with through-wall's scan period, average, first waveform's envelope and LPF."""
     cfg = scenarios.get("through-wall")
     sig = cfg.sensing.signal
     wf = WaveformLibrary(cfg.waveforms)[0]
-    measured = _chain_residue(rdot, np.arange(8) * 2.0 * math.pi / 8)
-    model = retained_fraction(
+    return retained_fraction(
         delay_step_s(rdot, cfg.sensing.scan_period_s),
         sig.background_alpha,
         pulse_envelope_std_s(wf.rms_bandwidth_hz),
         wf.center_freq_hz,
         sig.envelope_lpf_s,
+        fluctuation,
     )
+
+
+@pytest.mark.parametrize("rdot", [0.0, 0.05, 0.1, 0.2, 1.6])
+def test_the_chains_residue_of_a_coherent_echo_matches_the_model(rdot):
+    """Eight carrier phases (the model averages over the phase): within 3 standard errors of their mean + 0.03."""
+    measured = _chain_residue(rdot, np.arange(8) * 2.0 * math.pi / 8)
+    model = _model_residue(rdot)
     se = measured.std(ddof=1) / math.sqrt(measured.size)
     assert abs(measured.mean() - model) <= 3.0 * se + 0.03, (measured.mean(), model, se)
 
@@ -148,19 +154,9 @@ def test_the_chains_residue_of_a_coherent_echo_matches_the_model(rdot):
 @pytest.mark.parametrize("rdot", [0.0, 0.1])
 def test_the_chains_residue_of_a_swerling3_echo_matches_the_model(rdot):
     """Amplitudes drawn per scan (Swerling III, the persons'): the fluctuation's floor nu 2 / (1 + a) at rest."""
-    cfg = scenarios.get("through-wall")
-    sig = cfg.sensing.signal
-    wf = WaveformLibrary(cfg.waveforms)[0]
     rng = np.random.default_rng(7)
     measured = _chain_residue(rdot, rng.uniform(0.0, 2.0 * math.pi, 48), swerling3=rng)
-    model = retained_fraction(
-        delay_step_s(rdot, cfg.sensing.scan_period_s),
-        sig.background_alpha,
-        pulse_envelope_std_s(wf.rms_bandwidth_hz),
-        wf.center_freq_hz,
-        sig.envelope_lpf_s,
-        amplitude_fluctuation(3),
-    )
+    model = _model_residue(rdot, amplitude_fluctuation(3))
     se = measured.std(ddof=1) / math.sqrt(measured.size)
     assert abs(measured.mean() - model) <= 3.0 * se + 0.01, (measured.mean(), model, se)
 
