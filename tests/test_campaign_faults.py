@@ -23,7 +23,10 @@ from uwb_env.agents.summary import relative, summarise
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SHORT = ["n_scans=20", "targets.1.birth_time_s=1"]  # a few seconds for a whole campaign
-LONG = ["n_scans=140", "targets.1.birth_time_s=1"]  # long enough to interrupt mid-way
+LONG = ["n_scans=140", "targets.1.birth_time_s=1"]  # long episodes ...
+# ... and enough of them to interrupt mid-way: at ~2,000 myopic steps/s a 140-scan episode takes ~0.1 s, and 8 paired
+# runs (16 episodes on 2 workers) could finish between seeing the 4th run file and the signal arriving.
+LONG_RUNS = 24
 
 
 def _args(out: pathlib.Path, runs: int, overrides: list[str], workers: int = 2) -> list[str]:
@@ -78,9 +81,9 @@ def _wait_runs(out: pathlib.Path, n: int, proc: subprocess.Popen, timeout: float
 
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory) -> pathlib.Path:
-    """An uninterrupted campaign of 8 paired runs (the long episodes the interrupt tests cut)."""
+    """An uninterrupted campaign of LONG_RUNS paired runs (the long episodes the interrupt tests cut)."""
     out = tmp_path_factory.mktemp("reference")
-    done = _run(_args(out, 8, LONG, workers=2))
+    done = _run(_args(out, LONG_RUNS, LONG, workers=2))
     assert done.returncode == 0, done.stderr
     return out
 
@@ -90,11 +93,11 @@ pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="re
 
 def test_a_second_campaign_on_the_same_folder_is_refused_and_the_first_finishes_intact(tmp_path, reference):
     out = tmp_path / "c"
-    first = _start(_args(out, 8, LONG))
+    first = _start(_args(out, LONG_RUNS, LONG))
     _wait_runs(out, 1, first)
     os.killpg(first.pid, signal.SIGSTOP)  # paused while holding the lock: the second surely meets a running first
     try:
-        second = _run(_args(out, 8, LONG))
+        second = _run(_args(out, LONG_RUNS, LONG))
     finally:
         os.killpg(first.pid, signal.SIGCONT)
     assert second.returncode == 2
@@ -110,7 +113,7 @@ def test_a_second_campaign_on_the_same_folder_is_refused_and_the_first_finishes_
 @pytest.mark.parametrize("how", ["Ctrl-C to the group", "SIGTERM to the campaign"])
 def test_ctrl_c_stops_the_workers_at_once_writes_the_summary_of_finished_runs_and_resumes(tmp_path, reference, how):
     out = tmp_path / "c"
-    proc = _start(_args(out, 8, LONG))
+    proc = _start(_args(out, LONG_RUNS, LONG))
     _wait_runs(out, 4, proc)
     if how == "Ctrl-C to the group":
         os.killpg(proc.pid, signal.SIGINT)  # what the terminal does on Ctrl-C: the whole foreground group
@@ -118,15 +121,15 @@ def test_ctrl_c_stops_the_workers_at_once_writes_the_summary_of_finished_runs_an
         proc.terminate()  # SIGTERM to the main process only (a scheduler's or a user's kill)
     t0 = time.monotonic()
     stdout, stderr = proc.communicate(timeout=60)
-    assert time.monotonic() - t0 < 15  # workers terminated, queued runs cancelled (not the 16 runs played out)
+    assert time.monotonic() - t0 < 15  # workers terminated, queued runs cancelled (not every run played out)
     assert proc.returncode == 130, stderr
     assert "interrupted with" in stderr and "run again to resume" in stderr
     finished = len(list((out / "runs").rglob("seed-*.csv")))
-    assert finished < 16
+    assert finished < 2 * LONG_RUNS
     if "Interrupted:" in stdout:  # at least one seed finished by both schemes: its summary is printed and written
         assert "Interrupted:" in (out / "summary.md").read_text()
     assert _wait_empty(proc.pid) == []
-    again = _run(_args(out, 8, LONG))
+    again = _run(_args(out, LONG_RUNS, LONG))
     assert again.returncode == 0, again.stderr
     assert (out / "summary.md").read_bytes() == (reference / "summary.md").read_bytes()
     assert (out / "runs.csv").read_bytes() == (reference / "runs.csv").read_bytes()
@@ -134,13 +137,13 @@ def test_ctrl_c_stops_the_workers_at_once_writes_the_summary_of_finished_runs_an
 
 def test_sigkill_of_the_campaign_leaves_no_worker_and_the_resume_matches(tmp_path, reference):
     out = tmp_path / "c"
-    proc = _start(_args(out, 8, LONG))
+    proc = _start(_args(out, LONG_RUNS, LONG))
     _wait_runs(out, 3, proc)
     assert len(_group(proc.pid)) >= 3  # the campaign and its two workers
     proc.kill()  # the main process only: its workers must follow it (PR_SET_PDEATHSIG)
     proc.communicate(timeout=30)
     assert _wait_empty(proc.pid) == []
-    again = _run(_args(out, 8, LONG))
+    again = _run(_args(out, LONG_RUNS, LONG))
     assert again.returncode == 0, again.stderr
     assert (out / "summary.md").read_bytes() == (reference / "summary.md").read_bytes()
     assert not list(out.rglob(".*.tmp"))  # a killed writer's temporary file is removed on resume
