@@ -34,8 +34,19 @@ def _args(out: pathlib.Path, runs: int, overrides: list[str], workers: int = 2) 
             "--out", str(out), "--workers", str(workers), "--no-progress"]  # fmt: skip
 
 
+def _foreground_signals() -> None:
+    """In the child before exec: SIGINT and SIGTERM at their defaults, as in a campaign started at a terminal.
+
+    A disposition set to ignore is inherited across exec, and Python then installs no KeyboardInterrupt handler; the
+    test process's own may have been changed by what ran before it in the session (seen in a fresh clone's full
+    suite: the Ctrl-C'd campaign ran to the end with returncode 0).
+    """
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
 def _start(args: list[str]) -> subprocess.Popen:
-    """The campaign command in its own session (its pid is its process group)."""
+    """The campaign command in its own session (its pid is its process group), signals as at a terminal."""
     return subprocess.Popen(
         [sys.executable, "-m", "uwb_env.agents.cli", *args],
         cwd=ROOT,
@@ -43,6 +54,7 @@ def _start(args: list[str]) -> subprocess.Popen:
         stderr=subprocess.PIPE,
         text=True,
         start_new_session=True,
+        preexec_fn=_foreground_signals,
     )
 
 
