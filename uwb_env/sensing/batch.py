@@ -34,15 +34,7 @@ def sense_many(
         if not single:
             out[j] = sensor.sense(ep, k, plan, float(times_s[j]))
             continue
-        active = plan.active_rx
-        a, b = ep.clutter_start[k], ep.clutter_start[k + 1]
-        hit = ep.target_hit[w0, k]
-        if not all_active:
-            hit = hit & active[None, :, None]
-        target_rows = ep.target_rows[w0, k][hit]
-        clutter_rows = ep.clutter_rows[w0, a:b]
-        if not all_active:
-            clutter_rows = clutter_rows[active[ep.clutter_rx[a:b]]]
+        target_rows, clutter_rows = sensor.single_waveform_rows(ep, k, w0, plan.active_rx, all_active)
         parts += [target_rows, clutter_rows]
         sizes.append(target_rows.shape[0] + clutter_rows.shape[0])
         batch.append(j)

@@ -1110,22 +1110,13 @@ class ParametricSensor:
         Selects the scan's rows of the waveforms the plan sends, sorts them by (pair, range) and splits per pair.
         """
         all_active, w0, single, waveform_of_tx = self._validate(plan)
-        if self._fa_thin and not single:  # _validate's single is False for sensing.batch's sake (it does not thin)
-            single = len(set(waveform_of_tx)) == 1 and self._unit_chol[w0] is not None
         m = self.library.measurement_dim
         col = _columns(m)
         active = plan.active_rx
-        a, b = episode.clutter_start[k], episode.clutter_start[k + 1]
-        keep = None
         if single:
-            hit = episode.target_hit[w0, k]
-            if not all_active:
-                hit = hit & active[None, :, None]
-            target_rows = episode.target_rows[w0, k][hit]
-            clutter_rows = episode.clutter_rows[w0, a:b]
-            if episode.clutter_keep is not None:
-                keep = episode.clutter_keep[w0, a:b]
+            target_rows, clutter_rows = self.single_waveform_rows(episode, k, w0, active, all_active)
         else:  # each transmitter's echoes come from the waveform it sends
+            a, b = episode.clutter_start[k], episode.clutter_start[k + 1]
             target_rows = np.concatenate(
                 [
                     episode.target_rows[w, k, t][episode.target_hit[w, k, t] & active[:, None]]
@@ -1134,12 +1125,11 @@ class ParametricSensor:
             )
             wf_row = np.asarray(waveform_of_tx)[episode.clutter_tx[a:b]]
             clutter_rows = episode.clutter_rows[wf_row, np.arange(a, b)]
-            if episode.clutter_keep is not None:
-                keep = episode.clutter_keep[wf_row, np.arange(a, b)]
-        if not all_active:
-            keep = active[episode.clutter_rx[a:b]] if keep is None else keep & active[episode.clutter_rx[a:b]]
-        if keep is not None:
-            clutter_rows = clutter_rows[keep]
+            keep = None if episode.clutter_keep is None else episode.clutter_keep[wf_row, np.arange(a, b)]
+            if not all_active:
+                keep = active[episode.clutter_rx[a:b]] if keep is None else keep & active[episode.clutter_rx[a:b]]
+            if keep is not None:
+                clutter_rows = clutter_rows[keep]
         rows = np.concatenate([target_rows, clutter_rows])
         rows = rows.take(np.argsort(rows[:, 0] * _KEY_SPAN + rows[:, 1]), axis=0)  # pair, then range (<< span)
         snr = rows[:, col["snr"]]
@@ -1154,6 +1144,24 @@ class ParametricSensor:
         bounds = [*np.searchsorted(rows[:, 0], self._pair_index).tolist(), rows.shape[0]]
         origin = rows[:, col["origin"]].astype(np.int64)
         return self.pair_records(rows, cov, snr, origin, bounds, active, waveform_of_tx, time_s)
+
+    def single_waveform_rows(
+        self, episode: EpisodeSensing, k: int, w: int, active: BoolArray, all_active: bool
+    ) -> tuple[FloatArray, FloatArray]:
+        """Scan ``k``'s target and false-alarm rows when every transmitter sends waveform ``w`` (unsorted).
+
+        The targets hit at the listening receivers, and the false alarms the waveform keeps (its thinning,
+        ``ClutterConfig.reference_bandwidth_hz``) at the listening receivers. Shared with ``sensing.batch.sense_many``.
+        """
+        a, b = episode.clutter_start[k], episode.clutter_start[k + 1]
+        hit = episode.target_hit[w, k]
+        if not all_active:
+            hit = hit & active[None, :, None]
+        clutter_rows = episode.clutter_rows[w, a:b]
+        keep = None if episode.clutter_keep is None else episode.clutter_keep[w, a:b]
+        if not all_active:
+            keep = active[episode.clutter_rx[a:b]] if keep is None else keep & active[episode.clutter_rx[a:b]]
+        return episode.target_rows[w, k][hit], clutter_rows if keep is None else clutter_rows[keep]
 
     def pair_records(
         self,
@@ -1264,9 +1272,7 @@ class ParametricSensor:
         """Validate a plan and derive what a scan needs from it, once.
 
         Plans are immutable, so a validated plan is remembered by identity. Returns whether every receiver
-        listens, the first waveform, whether one waveform with a 1/SNR covariance serves all transmitters (always
-        False where waveforms thin the false alarms, ``ClutterConfig.reference_bandwidth_hz``: ``sensing.batch``
-        selects a single waveform's rows without the thinning, so such scans go through :meth:`sense`), and the
+        listens, the first waveform, whether one waveform with a 1/SNR covariance serves all transmitters, and the
         waveform of each transmitter.
         """
         hit = self._valid_plans.get(id(plan))
@@ -1278,7 +1284,7 @@ class ParametricSensor:
         derived = (
             bool(plan.active_rx.all()),
             w0,
-            len(waveforms) == 1 and self._unit_chol[w0] is not None and not self._fa_thin,
+            len(waveforms) == 1 and self._unit_chol[w0] is not None,
             plan.waveform.tolist(),
         )
         if len(self._valid_plans) > 256:
