@@ -49,6 +49,7 @@ from uwb_env.scenarios import (  # noqa: E402, F401
     indoor_rsn,
     through_wall,
     urban_crossing,
+    urban_distributed,
     urban_intersection,
 )
 
