@@ -403,6 +403,12 @@ def relative_track_features(
     feats = np.zeros((n_slots, F))
     order = compiled_slot_order(existence, confirmed)
     M = T + R
+    bx = np.cos(rx_boresight_rad)  # nan without array
+    by = np.sin(rx_boresight_rad)
+    baseline = np.empty(Q)
+    for q in range(Q):
+        t, j = pairs[q, 0], pairs[q, 1]
+        baseline[q] = math.hypot(tx_pos[t, 0] - rx_pos[j, 0], tx_pos[t, 1] - rx_pos[j, 1])
     r = np.empty(M)
     ux = np.empty(M)
     uy = np.empty(M)
@@ -440,13 +446,12 @@ def relative_track_features(
             f[c + 5] = math.log10(var_c) / 4.0
             f[c + 6] = corr
             if m >= T and rm > 0.0 and not math.isnan(rx_boresight_rad[m - T]):
-                bx, by = math.cos(rx_boresight_rad[m - T]), math.sin(rx_boresight_rad[m - T])
-                f[c + 7] = math.atan2(abs(bx * dy - by * dx), bx * dx + by * dy) / math.pi
+                cb, sb = bx[m - T], by[m - T]
+                f[c + 7] = math.atan2(abs(cb * dy - sb * dx), cb * dx + sb * dy) / math.pi
         c0 = 4 + 7 * T + 8 * R
         for q in range(Q):
             t = pairs[q, 0]
             j = T + pairs[q, 1]
-            baseline = math.hypot(tx_pos[t, 0] - rx_pos[j - T, 0], tx_pos[t, 1] - rx_pos[j - T, 1])
             gx, gy = ux[t] + ux[j], uy[t] + uy[j]
             g_norm = math.hypot(gx, gy)
             if g_norm == 0.0:
@@ -455,7 +460,7 @@ def relative_track_features(
                 gx, gy = gx / g_norm, gy / g_norm
                 var_g = C00 * gx * gx + 2.0 * C01 * gx * gy + C11 * gy * gy
             c = c0 + 3 * q
-            f[c] = (r[t] + r[j] - baseline) / range_scale_m
+            f[c] = (r[t] + r[j] - baseline[q]) / range_scale_m
             f[c + 1] = (rate[t] + rate[j]) / v_max
             f[c + 2] = math.log10(var_g) / 4.0
         c = c0 + 3 * Q
