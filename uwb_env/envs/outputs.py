@@ -193,18 +193,27 @@ def observations(
     kind: str,
     bound: float,
     scan_index: IntArray,
+    action_dims: tuple[int, ...] | None = None,
 ) -> Any:
     """E observations (``UWBSchedulingEnv`` docstring) from the track slots ``feats`` ``(E, n_slots, F)``.
 
-    ``previous`` ``(E,)`` the previous action (-1: none); ``extra``: the optional parts after it, in order
+    ``previous`` ``(E,)`` the previous action's plan index (-1: none), one-hot over the ``n_actions`` plans, or,
+    with ``action_dims`` (per-tx: ``(W,) * T``), its digits ``numpy.unravel_index(previous, action_dims)`` one-hot per
+    dimension and concatenated (``sum(action_dims)`` entries); ``extra``: the optional parts after it, in order
     (lookahead costs, scaled, ``(E, A)``; ready receivers ``(E, R)``). ``kind`` ``"box"``: ``(E, size)`` float32;
     ``"dict"``: the parts as float32 ``(E, ...)`` arrays. A value outside ``[-bound, bound]`` or not finite raises
     ``FloatingPointError`` naming the parts and the scan (nothing is clipped).
     """
     E = feats.shape[0]
-    prev = np.zeros((E, n_actions))
     has = previous >= 0
-    prev[np.flatnonzero(has), previous[has]] = 1.0
+    if action_dims is None:
+        prev = np.zeros((E, n_actions))
+        prev[np.flatnonzero(has), previous[has]] = 1.0
+    else:
+        prev = np.zeros((E, sum(action_dims)))
+        offsets = np.concatenate([[0], np.cumsum(action_dims)[:-1]])
+        digits = np.stack(np.unravel_index(previous[has], action_dims), axis=1)  # (E_has, D)
+        prev[np.flatnonzero(has)[:, None], offsets[None] + digits] = 1.0
     parts = {"tracks": feats, "previous_action": prev, **extra}
     flat = np.concatenate([v.reshape(E, -1) for v in parts.values()], axis=1)
     ok = (np.abs(flat) <= bound).all(axis=1)  # also catches NaN

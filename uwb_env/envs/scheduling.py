@@ -6,6 +6,15 @@ observation. The action indexes an enumerated list of plans (``self.plans``):
     action_kind="waveform"  every transmitter sends waveform w, every receiver listens (seed 003)
     action_kind="subset"    the k receivers of subset s listen, the fixed waveform is sent (seed 000's network)
     action_kind="joint"     waveform x subset
+    action_kind="per-tx"    every transmitter its own waveform, every receiver listens (distributed transmitters,
+                            seed 003's conclusion): the W^T joint assignments in ``itertools.product`` order, the first
+                            transmitter slowest, plan a = sum_t w_t W^(T - 1 - t) (``numpy.ravel_multi_index``)
+
+Action encoding (``action_encoding``): ``"flat"`` is ``Discrete(len(plans))``, the action is the plan's index (the only
+encoding of the first three kinds); ``"multi"`` (per-tx's default) is ``MultiDiscrete([W] * T)``, the action is the
+waveform of each transmitter, ``(T,)`` integers, and decodes to the plan of the same waveforms (so flat action a and
+multi action ``numpy.unravel_index(a, (W,) * T)`` play the same plan). ``plan_index(action)`` decodes either,
+``action_of_plan(a)`` encodes; ``lookahead_costs()`` and the other per-plan arrays are indexed by plan in both.
 
 Reward: minus the mean over confirmed tracks of trace(P) of the position block [m^2], minus
 ``missed_target_penalty_m2`` for every alive true target that no confirmed track covers within ``cover_gate_m``
@@ -24,7 +33,8 @@ target moves. The multi-step lookahead (``sequence_costs``) sees the delayed pay
 Observation (flat ``Box``, default): ``n_slots`` track slots, confirmed tracks first then by existence, each
     [present, existence, confirmed, (x - cx) / hx, (y - cy) / hy, vx / v_max, vy / v_max,
      log10(var_x) / 4, log10(var_y) / 4, corr_xy, mu_1 .. mu_r]
-(cx, cy the area's centre, hx, hy its half-sizes), then the previous action one-hot, then optionally
+(cx, cy the area's centre, hx, hy its half-sizes), then the previous action one-hot (with ``action_kind="per-tx"``
+one-hot per transmitter, T x W entries, rather than W^T), then optionally
 (log10(lookahead cost + 1e-9 m^2) + 9) / 11 per action (0 at no cost, 0.27 at 1e-6 m^2, 0.82 at 1 m^2:
 the costs span sub-millimetre indoor covariances to metres outdoors; with receiver warm-up also the same costs as if
 every receiver were ready, the value of each subset once warm), then with receiver warm-up the ready receivers
@@ -55,9 +65,12 @@ Python scalar or a fixed-shape float array:
 At ``reset`` no scan has been played: every count, cost and error is 0.
 
 Action masks (``action_masks()``): with ``out_of_service_rx`` (receivers that cannot listen) the subset and joint
-plans that need one of them are invalid, and the waveform plans listen with the receivers in service only; with
-``unavailable_waveforms`` the plans that send one of them are invalid. Stepping an invalid action raises
-``ValueError``; without either keyword every plan is valid.
+plans that need one of them are invalid, and the waveform and per-tx plans listen with the receivers in service only;
+with ``unavailable_waveforms`` the plans that send one of them are invalid (a tuple: at every transmitter; a dict
+``{transmitter: tuple}``: at those transmitters). Stepping an invalid action raises ``ValueError``; without either
+keyword every plan is valid. The ``MultiDiscrete`` encoding's mask is sb3-contrib's: the transmitters' per-waveform
+masks concatenated, ``(T * W,)``; the flat mask over plans is ``plan_masks()`` (the joint mask is separable: a plan is
+valid iff every transmitter's waveform is).
 """
 
 from __future__ import annotations
@@ -83,7 +96,8 @@ from uwb_env.tracking.trackset import TrackSet
 from uwb_env.typing import BoolArray, FloatArray
 from uwb_env.units import dbm_to_watts
 
-ACTION_KINDS = ("waveform", "subset", "joint")
+ACTION_KINDS = ("waveform", "subset", "joint", "per-tx")
+ACTION_ENCODINGS = ("flat", "multi")
 LOOKAHEAD_FLOOR_M2 = 1e-9  # floor of the log-scaled lookahead costs in the observation
 FIDELITIES = ("parametric", "signal")
 OBS_BOUND = 10.0
@@ -154,6 +168,23 @@ def _node_mask(name: str, value: object, names: list[str], what: str) -> BoolArr
     return mask
 
 
+def _waveform_mask(value: object, waveforms: list[str], transmitters: list[str]) -> BoolArray:
+    """``(T, W)`` the waveforms each transmitter cannot send (``unavailable_waveforms``), checked.
+
+    A tuple or list of waveforms (indices or names) applies to every transmitter; a dict maps transmitters (indices
+    or names, each once) to such tuples, the others sending every waveform.
+    """
+    T, W = len(transmitters), len(waveforms)
+    if not isinstance(value, dict):
+        return np.repeat(_node_mask("unavailable_waveforms", value, waveforms, "waveform")[None], T, axis=0)
+    _node_mask("unavailable_waveforms", list(value), transmitters, "transmitter")  # the keys: known, each once
+    dead = np.zeros((T, W), dtype=bool)
+    for key, item in value.items():
+        t = transmitters.index(key) if isinstance(key, str) else int(key)
+        dead[t] = _node_mask(f"unavailable_waveforms[{key!r}]", item, waveforms, "waveform")
+    return dead
+
+
 def enumerate_plans(
     kind: str, n_waveforms: int, n_tx: int, n_rx: int, subset_size: int, fixed_waveform: int
 ) -> list[ScanPlan]:
@@ -164,6 +195,11 @@ def enumerate_plans(
         raise ValueError(f"subset_size={subset_size}: must be in [1, {n_rx}] (the receivers of the scenario)")
     if not 0 <= fixed_waveform < n_waveforms:
         raise ValueError(f"fixed_waveform={fixed_waveform}: must be in [0, {n_waveforms - 1}]")
+    if kind == "per-tx":  # first transmitter slowest: plan a = ravel_multi_index(w, (W,) * T)
+        listening = np.ones(n_rx, dtype=bool)
+        return [
+            ScanPlan(np.array(w, dtype=np.int64), listening) for w in itertools.product(range(n_waveforms), repeat=n_tx)
+        ]
     subsets = [np.isin(np.arange(n_rx), c) for c in itertools.combinations(range(n_rx), subset_size)]
     if kind == "waveform":
         return [ScanPlan.all_listening(w, n_tx, n_rx) for w in range(n_waveforms)]
@@ -182,6 +218,8 @@ class UWBSchedulingEnv(gym.Env):
     Args:
         scenario: a registered scenario name or a ``ScenarioConfig``; overrides: dotted config overrides.
         action_kind, subset_size, fixed_waveform: the plans (``enumerate_plans``).
+        action_encoding: ``"flat"`` (``Discrete``) or ``"multi"`` (``MultiDiscrete([W] * T)``, per-tx only); None:
+            ``"multi"`` for per-tx, ``"flat"`` otherwise (module docstring).
         fidelity: ``"parametric"`` or ``"signal"`` (synthesised signals through the seeds' chains: seed 000's for
             impulse radios, seed 003's delay-Doppler chain for chirp trains; ``uwb_env.sensing.protocol``); None keeps
             the scenario's ``sensing.fidelity``. With ``"signal"`` the lookahead still uses the parametric sensor
@@ -198,7 +236,8 @@ class UWBSchedulingEnv(gym.Env):
             default), another constant in (0, 1], or ``"pda"`` for q_2(P_D, clutter in the gate) of PDA
             (``uwb_env.tracking.reduction``).
         out_of_service_rx, unavailable_waveforms: receivers and waveforms (indices or names) that the scheduler
-            cannot use; they mask actions (module docstring).
+            cannot use; they mask actions (module docstring). ``unavailable_waveforms`` may be a dict
+            ``{transmitter: waveforms}`` (indices or names) for waveforms that only some transmitters lack.
         render_mode: ``None``, ``"rgb_array"`` (``render()`` returns the frame) or ``"human"`` (shown after every
             ``reset`` and ``step``; ``render()`` returns None).
 
@@ -212,6 +251,7 @@ class UWBSchedulingEnv(gym.Env):
         self,
         scenario: str | ScenarioConfig = "urban-intersection",
         action_kind: str = "waveform",
+        action_encoding: str | None = None,
         subset_size: int = 3,
         fixed_waveform: int = 0,
         fidelity: str | None = None,
@@ -225,7 +265,7 @@ class UWBSchedulingEnv(gym.Env):
         receiver_warmup: bool = False,
         lookahead_q2: float | str = 1.0,
         out_of_service_rx: tuple[int | str, ...] = (),
-        unavailable_waveforms: tuple[int | str, ...] = (),
+        unavailable_waveforms: tuple[int | str, ...] | dict[int | str, tuple[int | str, ...]] = (),
         render_mode: str | None = None,
         _sensor: Sensor | None = None,
         **overrides: Any,
@@ -234,7 +274,19 @@ class UWBSchedulingEnv(gym.Env):
             raise TypeError(
                 f"scenario={scenario!r}: must be a scenario name (one of {scenarios.names()}) or a ScenarioConfig"
             )
-        check_choice("action_kind", action_kind, ACTION_KINDS)
+        if not isinstance(action_kind, str) or action_kind not in ACTION_KINDS:
+            raise (ValueError if isinstance(action_kind, str) else TypeError)(
+                f"action_kind={action_kind!r}: must be one of {ACTION_KINDS[:3]} (one waveform for every transmitter) "
+                "or 'per-tx' (each transmitter its own waveform)"
+            )
+        if action_encoding is None:
+            action_encoding = "multi" if action_kind == "per-tx" else "flat"
+        check_choice("action_encoding", action_encoding, ACTION_ENCODINGS)
+        if action_encoding == "multi" and action_kind != "per-tx":
+            raise ValueError(
+                f"action_encoding='multi' with action_kind={action_kind!r}: MultiDiscrete is per-tx's encoding; "
+                "must be 'flat' (or None) for this kind"
+            )
         if fidelity is not None:
             check_choice("fidelity", fidelity, FIDELITIES)
         if tracker is not None:
@@ -260,28 +312,31 @@ class UWBSchedulingEnv(gym.Env):
         self._dead_rx = _node_mask(
             "out_of_service_rx", out_of_service_rx, [r.name for r in self.cfg.receivers], "receiver"
         )
-        self._dead_w = _node_mask(
-            "unavailable_waveforms", unavailable_waveforms, [w.name for w in self.cfg.waveforms], "waveform"
+        self._dead_tw = _waveform_mask(  # (T, W) the waveforms each transmitter cannot send
+            unavailable_waveforms, [w.name for w in self.cfg.waveforms], [t.name for t in self.cfg.transmitters]
         )
         self.sim = Simulator(self.cfg, sensor=_sensor)  # _sensor: one shared by a batched vector env (envs.vector)
         sensor = self.sim.sensor
         plans = enumerate_plans(action_kind, len(sensor.library), sensor.n_tx, sensor.n_rx, subset_size, fixed_waveform)
-        if action_kind == "waveform":  # every in-service receiver listens; a receiver out of service cannot
+        if action_kind in ("waveform", "per-tx"):  # every in-service receiver listens; one out of service cannot
             plans = [ScanPlan(p.waveform, p.active_rx & ~self._dead_rx) for p in plans]
             if self._dead_rx.all():
                 raise ValueError(
                     f"out_of_service_rx={out_of_service_rx!r}: must leave at least one receiver in service"
                 )
         self.plans = plans
+        tx_index = np.arange(sensor.n_tx)
         self._mask = np.array(
-            [not (p.active_rx & self._dead_rx).any() and not self._dead_w[p.waveform].any() for p in plans]
+            [not (p.active_rx & self._dead_rx).any() and not self._dead_tw[tx_index, p.waveform].any() for p in plans]
         )
         if not self._mask.any():
             raise ValueError(
                 f"out_of_service_rx={out_of_service_rx!r}, unavailable_waveforms={unavailable_waveforms!r}: "
                 f"must leave at least one valid plan of action_kind={action_kind!r}"
             )
-        self.action_kind = action_kind
+        self.action_kind, self.action_encoding = action_kind, action_encoding
+        # per-tx: the plan's per-transmitter waveforms are the MultiDiscrete action (module docstring)
+        self.action_dims = (len(sensor.library),) * sensor.n_tx if action_kind == "per-tx" else None
         self.n_slots, self.obs_kind, self.include_lookahead = n_slots, observation, include_lookahead
         self.missed_target_penalty_m2 = float(missed_target_penalty_m2)
         self.cover_gate_m = float(cover_gate_m)
@@ -289,7 +344,11 @@ class UWBSchedulingEnv(gym.Env):
         self.receiver_warmup = bool(receiver_warmup)
         self.lookahead_q2 = lookahead_q2
         self.render_mode = render_mode
-        self.action_space = spaces.Discrete(len(self.plans))
+        self.action_space = (
+            spaces.MultiDiscrete(list(self.action_dims))
+            if action_encoding == "multi" and self.action_dims is not None
+            else spaces.Discrete(len(self.plans))
+        )
         self.n_models = len(self.sim.tracker.model_names)
         self._n_targets = len(self.cfg.targets)  # the width of info["position_errors_m"]
         self.slot_features = 10 + self.n_models
@@ -309,7 +368,7 @@ class UWBSchedulingEnv(gym.Env):
         )
         parts = {
             "tracks": spaces.Box(-OBS_BOUND, OBS_BOUND, (n_slots, self.slot_features), np.float32),
-            "previous_action": spaces.Box(0.0, 1.0, (len(self.plans),), np.float32),
+            "previous_action": spaces.Box(0.0, 1.0, (self._previous_size,), np.float32),
         }
         if include_lookahead:
             parts["lookahead"] = spaces.Box(0.0, OBS_BOUND, (len(self.plans),), np.float32)
@@ -374,20 +433,45 @@ class UWBSchedulingEnv(gym.Env):
         return self._observation(), reward, False, self.sim.done, info
 
     def action_masks(self) -> BoolArray:
-        """``(n_actions,)`` which actions are valid (for masked policies: sb3-contrib's MaskablePPO, RLlib).
+        """Which actions are valid (for masked policies: sb3-contrib's MaskablePPO, RLlib).
 
-        False for a plan that needs a receiver out of service (``out_of_service_rx``) or sends a waveform that is
-        not available (``unavailable_waveforms``); all True without either. Stepping a masked action raises
+        ``Discrete``: ``(n_actions,)``, False for a plan that needs a receiver out of service (``out_of_service_rx``)
+        or sends a waveform that is not available (``unavailable_waveforms``); all True without either.
+        ``MultiDiscrete`` (per-tx): sb3-contrib's convention, the transmitters' masks over the library concatenated,
+        ``(T * W,)`` (entry t W + w: transmitter t may send waveform w). Stepping a masked action raises
         ``ValueError``.
         """
+        if self.action_encoding == "multi":
+            return (~self._dead_tw).ravel()
         return self._mask.copy()
 
-    def describe_action(self, action: int) -> str:
-        """The plan of ``action`` in words: the waveform sent and the listening receivers, by their names."""
+    def plan_masks(self) -> BoolArray:
+        """``(len(plans),)`` which plans are valid, whatever the encoding (``action_masks()`` of the flat one)."""
+        return self._mask.copy()
+
+    def plan_index(self, action: Any) -> int:
+        """The index into ``plans`` of ``action`` (either encoding; checked, masked actions allowed)."""
+        return self._check_action(action, masked_ok=True)
+
+    def action_of_plan(self, plan: int) -> Any:
+        """The action that plays ``plans[plan]``: the index itself (``Discrete``) or its waveforms ``(T,)`` (multi)."""
+        check_int("plan", plan, 0, len(self.plans) - 1)
+        if self.action_encoding == "multi":
+            return np.array(np.unravel_index(int(plan), self.action_dims), dtype=np.int64)
+        return int(plan)
+
+    def describe_action(self, action: Any) -> str:
+        """The plan of ``action`` in words: the waveform(s) sent (per transmitter for per-tx), the receivers."""
         a = self._check_action(action, masked_ok=True)
         plan = self.plans[a]
-        names = sorted({self.cfg.waveforms[int(w)].name for w in plan.waveform})
         rx = [self.cfg.receivers[i].name for i in np.flatnonzero(plan.active_rx)]
+        if self.action_kind == "per-tx":
+            sent = [
+                f"{t.name} {self.cfg.waveforms[int(w)].name}"
+                for t, w in zip(self.cfg.transmitters, plan.waveform, strict=True)
+            ]
+            return f"action {a}: waveforms {', '.join(sent)}; receivers {', '.join(rx)}"
+        names = sorted({self.cfg.waveforms[int(w)].name for w in plan.waveform})
         return f"action {a}: waveform {', '.join(names)}; receivers {', '.join(rx)}"
 
     @property
@@ -430,19 +514,45 @@ class UWBSchedulingEnv(gym.Env):
         return self.sim.sensor, self.sim.tracker, self.plans, k * self.cfg.sensing.scan_period_s, k
 
     # ----------------------------------------------------------------------------------------------- internals
+    @property
+    def _previous_size(self) -> int:
+        """Entries of the previous action's one-hot: one per plan, or per transmitter and waveform (per-tx)."""
+        return len(self.plans) if self.action_dims is None else int(sum(self.action_dims))
+
     def _check_action(self, action: Any, *, masked_ok: bool = False) -> int:
-        """The action as an int; raises unless it is an integer scalar in range and (unless ``masked_ok``) valid."""
+        """The plan index of ``action``; raises unless it is an action of the space and (unless ``masked_ok``) valid.
+
+        ``Discrete``: an integer scalar in range. ``MultiDiscrete``: ``(T,)`` integers, each in [0, W).
+        """
         a = np.asarray(action)
-        if a.shape != () or a.dtype.kind not in "iu" or not 0 <= int(a) < len(self.plans):
+        if self.action_encoding == "multi":
+            dims = self.action_dims
+            if a.shape != (len(dims),) or a.dtype.kind not in "iu" or not ((a >= 0) & (a < dims[0])).all():
+                raise ValueError(
+                    f"action={action!r}: must be {len(dims)} integers (a waveform per transmitter), each in "
+                    f"[0, {dims[0] - 1}]"
+                )
+            a = np.ravel_multi_index(tuple(a.tolist()), dims)
+        elif a.shape != () or a.dtype.kind not in "iu" or not 0 <= int(a) < len(self.plans):
             raise ValueError(f"action={action!r}: must be an integer in [0, {len(self.plans) - 1}]")
         a_int = int(a)
         if not masked_ok and not self._mask[a_int]:
             plan = self.plans[a_int]
             dead = [self.cfg.receivers[i].name for i in np.flatnonzero(plan.active_rx & self._dead_rx)]
-            gone = sorted({self.cfg.waveforms[int(w)].name for w in plan.waveform if self._dead_w[int(w)]})
+            gone = sorted(
+                {self.cfg.waveforms[int(w)].name for t, w in enumerate(plan.waveform) if self._dead_tw[t, int(w)]}
+            )
             why = "; ".join(
                 [f"receiver(s) {dead} out of service"] * bool(dead) + [f"waveform(s) {gone} unavailable"] * bool(gone)
             )
+            if self.action_encoding == "multi":
+                allowed = {
+                    t.name: np.flatnonzero(~self._dead_tw[i]).tolist() for i, t in enumerate(self.cfg.transmitters)
+                }
+                raise ValueError(
+                    f"action={action!r} (plan {a_int}): masked ({why}); each transmitter must send one of its valid "
+                    f"waveforms {allowed} (action_masks())"
+                )
             raise ValueError(
                 f"action={a_int}: masked ({why}); must be one of the valid actions "
                 f"{np.flatnonzero(self._mask).tolist()} (action_masks())"
@@ -515,6 +625,7 @@ class UWBSchedulingEnv(gym.Env):
             self.obs_kind,
             OBS_BOUND,
             np.array([self.sim.k]),
+            self.action_dims,
         )
         return {k: v[0] for k, v in obs.items()} if self.obs_kind == "dict" else obs[0]
 

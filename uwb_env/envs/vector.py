@@ -29,7 +29,11 @@ batched (``render_mode`` must be None).
 
 Seeds: ``reset(seed=s)`` seeds environment e with ``s + e`` (an int) or ``s[e]`` (a list), as ``SyncVectorEnv``;
 ``reset(options={"reset_mask": mask})`` resets only the environments where ``mask`` ``(N,)`` is True (the others
-keep their episodes), so episodes can end at different steps. ``action_masks()`` ``(N, A)``.
+keep their episodes), so episodes can end at different steps. ``action_masks()`` ``(N, A)`` (``(N, T * W)`` for the
+``MultiDiscrete`` encoding of per-tx plans: the single env's per-transmitter masks, stacked).
+
+Actions: ``(N,)`` plan indices, or ``(N, T)`` waveforms per transmitter for the ``MultiDiscrete`` encoding
+(``UWBSchedulingEnv`` docstring), decoded to plan indices as the single env decodes them.
 """
 
 from __future__ import annotations
@@ -97,7 +101,7 @@ class UWBVectorEnv(VectorEnv):
         self.render_mode = None
         self.sensor = first.sim.sensor
         self.plans = first.plans
-        self._mask = first.action_masks()
+        self._mask = first.plan_masks()  # (A,) over plans, whatever the encoding
         self._waveforms = np.array([p.waveform for p in self.plans], np.int64)  # (A, T)
         self._tracker = BatchedTracker([env.sim.tracker for env in self.envs])
         self._observations = create_empty_array(self.single_observation_space, self.num_envs)
@@ -176,7 +180,8 @@ class UWBVectorEnv(VectorEnv):
 
     def action_masks(self) -> BoolArray:
         """``(N, A)`` the valid actions of every environment (``UWBSchedulingEnv.action_masks``)."""
-        return np.broadcast_to(self._mask, (self.num_envs, self._mask.size)).copy()
+        mask = self.envs[0].action_masks()
+        return np.broadcast_to(mask, (self.num_envs, mask.size)).copy()
 
     def lookahead_costs(self) -> FloatArray:
         """``(N, A)`` every environment's ``UWBSchedulingEnv.lookahead_costs`` for its next scan, in one batch."""
@@ -201,8 +206,32 @@ class UWBVectorEnv(VectorEnv):
 
     # ------------------------------------------------------------------------------------------------ internals
     def _check_actions(self, actions: Any) -> IntArray:
-        """``(N,)`` int actions; raises naming the environment of a bad or masked one."""
+        """``(N,)`` plan indices of the actions; raises naming the environment of a bad or masked one."""
         a = np.asarray(actions)
+        first = self.envs[0]
+        if first.action_encoding == "multi":  # (N, T) waveforms per transmitter -> plan indices
+            dims = first.action_dims
+            if a.shape != (self.num_envs, len(dims)) or a.dtype.kind not in "iu":
+                raise ValueError(
+                    f"actions={actions!r}: must be ({self.num_envs}, {len(dims)}) integers (a waveform per "
+                    f"transmitter), each in [0, {dims[0] - 1}]"
+                )
+            bad_digit = ((a < 0) | (a >= dims[0])).any(axis=1)
+            if bad_digit.any():
+                e = int(np.flatnonzero(bad_digit)[0])
+                try:
+                    self.envs[e]._check_action(a[e])  # raises with the single env's message
+                except ValueError as err:
+                    raise ValueError(f"actions[{e}]: {err}") from None
+            plans = np.ravel_multi_index(tuple(a.T), dims)
+            masked = ~self._mask[plans]
+            if masked.any():
+                e = int(np.flatnonzero(masked)[0])
+                try:
+                    self.envs[e]._check_action(a[e])
+                except ValueError as err:
+                    raise ValueError(f"actions[{e}]: {err}") from None
+            return plans.astype(np.int64)
         if a.shape != (self.num_envs,) or a.dtype.kind not in "iu":
             raise ValueError(f"actions={actions!r}: must be {self.num_envs} integers in [0, {len(self.plans) - 1}]")
         bad = (a < 0) | (a >= len(self.plans))
@@ -312,7 +341,7 @@ class UWBVectorEnv(VectorEnv):
                 extra["lookahead_all_ready"] = _scaled_cost(self._lookahead(envs, all_ready=True))
         if first.receiver_warmup:
             extra["ready_receivers"] = np.array([self.envs[e]._ready_rx for e in envs.tolist()], dtype=float)
-        obs = observations(summ[-1], actions, len(self.plans), extra, first.obs_kind, OBS_BOUND, ks)
+        obs = observations(summ[-1], actions, len(self.plans), extra, first.obs_kind, OBS_BOUND, ks, first.action_dims)
         return rewards, info, obs
 
     def _set_rows(self, rows: int | IntArray, obs: Any) -> None:

@@ -20,7 +20,13 @@ beside it, as the seed's:
       angles there, and the receding-from-one-node vehicle approaches the other (range-rates of opposite sign:
       the best PRI and bandwidth differ per node). While vehicle 1 drives the north arm (t = 20-35 s) vehicle 2 is
       on the west arm or in the turn: each transmitter has its own vehicle to serve.
-  Every (tx, rx) combination is a formed pair (8 pairs: the cross pairs are bistatic across the intersection).
+    * Formed pairs: each transmitter with its own node's two receivers (4 pairs, ``ScenarioConfig.pairs``). A
+      cross-node pair (tx-se to rx-nw, 250 m apart) would need the two nodes' clocks synchronised to a fraction of
+      the 25 ns range cell and their carriers coherent across the 0.25 s dwell (the range-rate), which separate
+      nodes do not share without a common reference; and on this path it would see the north arm near its
+      baseline, in the direct path's blind zone (bistatic range within 7.5 m of the baseline): with every
+      combination formed, the cross pairs covered 16-25 of the 140 scans (the turn's entry), while adding their
+      false alarms and 3-tuples to the range-only initiation.
     * Power: each transmitter's peak power puts its short chirp's one-pulse, one-element E/N0 at the seed's 0.2
       (-7.0 dB) on the median of its covered links with its own node's receivers along the path
       (``SEED_REGIME_POWER_DBM`` = 4.5 dBm for the seed's node, as in ``urban-intersection``: -6.97 dB;
@@ -39,9 +45,7 @@ waveform its transmitter sends (``ParametricSensor.sense``: each transmitter's t
 each false alarm measured through, and thinned by, the waveform of its pair's transmitter; all pre-drawn per pair,
 so plans stay paired under common random numbers). The signal fidelity does the same (``ChirpSignalSensor.scan``
 forms each pair's image with its transmitter's waveform, pairs grouped by waveform); nothing of one transmitter's
-train leaks into another's image (the offset is larger than any echo delay). The cross pairs (tx-se to rx-nw and
-back) see the north arm near their baseline, in the direct path's blind zone (bistatic range within 7.5 m of the
-baseline): they cover the turn's entry only.
+train leaks into another's image (the offset is larger than any echo delay).
 
 The action is the waveform of every transmitter (``UWBSchedulingEnv(action_kind="per-tx")``, W^T = 64 plans,
 ``uwb_env/UrbanDistributed-v0``).
@@ -96,6 +100,7 @@ def urban_distributed() -> ScenarioConfig:
         "distributed transmitters",
         transmitters=transmitters,
         receivers=receivers,
+        pairs=tuple((t, r) for t, own in enumerate(NODE_RECEIVERS) for r in own),
     )
 
 
