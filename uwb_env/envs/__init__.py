@@ -14,12 +14,17 @@ ENV_IDS = {
         "receiver_warmup": True,
     },
     "uwb_env/ThroughWall-v2": {"scenario": "through-wall", "action_kind": "waveform"},
+    "uwb_env/UrbanDistributed-v0": {"scenario": "urban-distributed", "action_kind": "per-tx"},
 }
 """Registered ids and their default keyword arguments (``gymnasium.make(id, **kwargs)`` overrides them).
 
 ``UrbanWideband-v2`` adds two 160 MHz chirps to seed 003's library (``Discrete(8)``): range accuracy against the
 range migration of fast vehicles, a trade-off that depends on each track's range-rate
 (``uwb_env.scenarios.urban_intersection``).
+
+``UrbanDistributed-v0`` is seed 003's intersection watched by two radar nodes whose transmitters each pick their own
+chirp of eight every scan (``MultiDiscrete([8, 8])``; ``action_encoding="flat"`` gives ``Discrete(64)`` with
+``action_masks()``; ``uwb_env.scenarios.urban_distributed``).
 
 ``IndoorSubsetWarmup-v1`` is the scenario where one-step lookahead is short-sighted (receiver warm-up,
 ``uwb_env.envs.scheduling``).
