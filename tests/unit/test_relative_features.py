@@ -168,9 +168,9 @@ def test_hand_computed_track_and_two_nodes():
     rho 0. rx: r = 13, dr/dt = (-5 + 24) / 13 = 19 / 13, cos = -19 / (13 sqrt 5), |sin| = |(-5, 12) x (1, 2)| /
     (13 sqrt 5) = 22 / (13 sqrt 5); the angle beta between u_r = (-5, 12) / 13 and the principal axis has
     cos beta = 119 / 169, sin beta = 120 / 169, so var_r = 9 cos^2 + sin^2 = 141849 / 28561, var_c = 10 - var_r,
-    |cov| = 8 cos beta sin beta; off boresight acos(12 / 13) / pi. Pair: bistatic range 26 - 10 = 16, rate
-    (u_t + u_r) . v = (0, 24 / 13) . (1, 2) = 48 / 13; gradient along +y, so its variance is C_yy =
-    9 (12 / 13)^2 + (5 / 13)^2 = 1321 / 169."""
+    |cov| = 8 cos beta sin beta; off boresight acos(12 / 13) / pi. Pair: half bistatic range (26 - 10) / 2 = 8,
+    half rate (u_t + u_r) . v / 2 = (0, 24 / 13) . (1, 2) / 2 = 24 / 13; gradient along +y, so its variance is
+    C_yy = 9 (12 / 13)^2 + (5 / 13)^2 = 1321 / 169."""
     tx, rx = np.array([[0.0, 0.0]]), np.array([[10.0, 0.0]])
     boresight = np.array([math.pi / 2])
     pairs = np.array([[0, 0]], np.int64)
@@ -195,7 +195,7 @@ def test_hand_computed_track_and_two_nodes():
         13.0 / range_scale, 19.0 / 13.0 / v_max, -19.0 / r5, 22.0 / r5,
         math.log10(var_r) / 4, math.log10(10.0 - var_r) / 4, 8.0 * cos_b * sin_b / math.sqrt(var_r * (10.0 - var_r)),
         math.acos(12.0 / 13.0) / math.pi,
-        16.0 / range_scale, 48.0 / 13.0 / v_max, math.log10(1321.0 / 169.0) / 4,
+        8.0 / range_scale, 24.0 / 13.0 / v_max, math.log10(1321.0 / 169.0) / 4,
         0.1, 0.2, 0.7, 0.5,
     ]  # fmt: skip
     np.testing.assert_allclose(f[0], want, rtol=1e-13, atol=1e-15)
@@ -233,7 +233,7 @@ def test_a_track_on_a_node_and_at_rest_has_defined_values():
     want_rx1 = [0.5, 0.0, 0.0, 0.0, math.log10(92.0 / 25.0) / 4, math.log10(58.0 / 25.0) / 4, rho, off]
     np.testing.assert_allclose(f[19:27], want_rx1, rtol=1e-14, atol=1e-15)
     np.testing.assert_allclose(f[27:30], [0.0, 0.0, half], atol=1e-15)  # pair (0, 0): g = 0
-    # pair (0, 1): on its baseline's end, 0 + 5 - 5 = 0; g = u_r = (0.6, 0.8)
+    # pair (0, 1): on its baseline's end, (0 + 5 - 5) / 2 = 0; g = u_r = (0.6, 0.8)
     np.testing.assert_allclose(f[30:33], [0.0, 0.0, math.log10(92.0 / 25.0) / 4], rtol=1e-14, atol=1e-15)
     np.testing.assert_allclose(f[33:], [0.25, 0.25, 0.5, 0.0], atol=0)
     got = relative_track_features(
@@ -245,7 +245,7 @@ def test_a_track_on_a_node_and_at_rest_has_defined_values():
 @pytest.mark.parametrize("n", [0, 1, 5, 8, 13, 30])
 def test_compiled_equals_the_numpy_reference(n):
     """Random scenes (tracks on a node and at rest among them), fewer and more tracks than slots: every feature to
-    1e-12, the slots in ``slot_order`` (confirmed, then existence), the rest zero."""
+    1e-12, the slots in ``slot_order`` (confirmed, then existence), the rest zero; the pair features' bounds."""
     rng = np.random.default_rng(100 + n)
     tx, rx, boresight, pairs, existence, confirmed, mu, x, P = _scene(rng, 2, 3, n)
     existence[: n // 2] = 0.5  # ties keep index order
@@ -264,6 +264,12 @@ def test_compiled_equals_the_numpy_reference(n):
         np.testing.assert_array_equal(got[: order.size, 0], 1.0)
         np.testing.assert_allclose(got[: order.size, -3], mu[order, 1], rtol=0, atol=0)  # nca, last single
         assert np.isfinite(got).all()
+        # a pair's half range and half rate are on a node's scale: <= the larger node range, |rate| <= speed
+        n0 = 4 + 7 * 2 + 8 * 3
+        for q, (t, j) in enumerate(pairs):
+            node_range = np.maximum(got[:, 4 + 7 * t], got[:, 4 + 7 * 2 + 8 * j])
+            assert (got[:, n0 + 3 * q] <= node_range + 1e-15).all() and (got[:, n0 + 3 * q] >= -1e-15).all()
+            assert (np.abs(got[:, n0 + 3 * q + 1]) <= got[:, 3] + 1e-15).all()
     assert not got[min(n, 8) :].any()
 
 

@@ -20,10 +20,13 @@ Per node (a transmitter or a receiver at position n), with d = p - n, the range 
                        ``rx_boresight_rad`` rotates and mirrors with the scene; 0 for a receiver without an array)
     radial frame       var_r = u^T C u, var_c = w^T C w, rho = u^T C w / sqrt(var_r var_c), w = (-u_y, u_x)
 
-Per formed (tx, rx) pair, the bistatic range r_t + r_r, its rate (u_t + u_r) . v and the position variance
-g^T C g / |g|^2 along its gradient g = u_t + u_r (the direction in which the pair's range measurement constrains the
-track; g^T C g is the linearised variance of the measured bistatic range, Bar-Shalom, Li & Kirubarajan 2001,
-section 5.6).
+Per formed (tx, rx) pair with baseline L = |tx - rx|: the half bistatic range minus half the baseline,
+(r_t + r_r - L) / 2 (the semi-major axis of the track's bistatic ellipse minus its focal half-distance; 0 on the
+baseline segment), its rate (u_t + u_r) . v / 2 and the position variance g^T C g / |g|^2 along the gradient
+g = u_t + u_r (the direction in which the pair's range measurement constrains the track; g^T C g is the linearised
+variance of the measured bistatic range, Bar-Shalom, Li & Kirubarajan 2001, section 5.6). Halved so that a pair's
+range and rate are on a node's scale (|rate| <= |v|, range <= the larger of the two node ranges): the env's
+observation bound holds for them whenever it holds for the node features.
 
 Handedness is dropped on purpose: a mirror flips the sign of sin beta, of the off-boresight angle alpha and of the
 radial / cross-radial correlation rho (w = u rotated by +90 degrees becomes -w in the mirror image), and swaps the
@@ -56,8 +59,8 @@ left model), ``N0 = 4 + 7 T + 8 R`` and ``M0 = N0 + 3 Q``:
                                    r / range_scale, (u . v) / v_max, cos beta, |sin beta|,
                                    log10(var_r) / 4, log10(var_c) / 4, |rho|
     4 + 7 T + 8 j + k, j < R       receiver j, k = 0..6 as a transmitter's, k = 7: |alpha| / pi
-    N0 + 3 q + k, q < Q            pair q = (t, j), k = 0..2: (r_t + r_j - |tx_t - rx_j|) / range_scale,
-                                   ((u_t + u_j) . v) / v_max, log10(g^T C g / |g|^2) / 4
+    N0 + 3 q + k, q < Q            pair q = (t, j), k = 0..2: (r_t + r_j - |tx_t - rx_j|) / (2 range_scale),
+                                   ((u_t + u_j) . v) / (2 v_max), log10(g^T C g / |g|^2) / 4
     M0 + i, i < a                  mu of the i-th non-turn model
     M0 + a + 2 c, c < b            mu_left + mu_right of turn pair c
     M0 + a + 2 c + 1               |mu_left - mu_right| of turn pair c
@@ -93,7 +96,7 @@ N_TX_FEATURES = 7
 N_RX_FEATURES = 8
 """Per receiver: a transmitter's seven, then |angle off boresight| / pi."""
 N_PAIR_FEATURES = 3
-"""Per formed pair: bistatic range minus baseline, its rate, log variance along its gradient."""
+"""Per formed pair: half the bistatic range minus half the baseline, its rate, log variance along its gradient."""
 
 
 # ------------------------------------------------------------------------------------------------ layout
@@ -179,7 +182,7 @@ def relative_feature_count(n_tx: int, n_rx: int, n_pairs: int, n_single_models: 
 
 
 _NODE_NAMES = ("range", "range_rate", "cos_bearing", "abs_sin_bearing", "log_var_radial", "log_var_cross", "abs_corr")
-_PAIR_NAMES = ("bistatic_range", "bistatic_rate", "log_var_gradient")
+_PAIR_NAMES = ("half_bistatic_range", "half_bistatic_rate", "log_var_gradient")
 
 
 def relative_feature_names(n_tx: int, n_rx: int, pairs: IntArray, model_names: tuple[str, ...]) -> list[str]:
@@ -314,8 +317,8 @@ def relative_track_features_reference(
     var_g = np.where(g_norm == 0, half_trace[:, None], _quad(C, g_hat, g_hat))
     pair = np.stack(
         [
-            (r[:, t_idx] + r[:, j_idx] - baseline) / range_scale_m,
-            (g * v[:, None]).sum(-1) / v_max,
+            (r[:, t_idx] + r[:, j_idx] - baseline) / (2.0 * range_scale_m),
+            (g * v[:, None]).sum(-1) / (2.0 * v_max),
             np.log10(var_g) / 4.0,
         ],
         axis=-1,
@@ -460,8 +463,8 @@ def relative_track_features(
                 gx, gy = gx / g_norm, gy / g_norm
                 var_g = C00 * gx * gx + 2.0 * C01 * gx * gy + C11 * gy * gy
             c = c0 + 3 * q
-            f[c] = (r[t] + r[j] - baseline[q]) / range_scale_m
-            f[c + 1] = (rate[t] + rate[j]) / v_max
+            f[c] = (r[t] + r[j] - baseline[q]) / (2.0 * range_scale_m)
+            f[c + 1] = (rate[t] + rate[j]) / (2.0 * v_max)
             f[c + 2] = math.log10(var_g) / 4.0
         c = c0 + 3 * Q
         for i in range(a):
