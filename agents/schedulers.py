@@ -5,6 +5,11 @@ the environment's one-step lookahead costs (seed 003 eq. 7); MultiStepLookahead 
 the expected covariance recursion (the env's ``sequence_costs``). Ties (no track yet: every cost is 0) go
 to the plan that transmits the most energy -- the best detection for search -- then to the lowest action index.
 ``make_scheduler("fixed-2")`` builds one from its name (the campaign's schemes).
+
+Every scheduler chooses a plan (an index into the env's ``plans``, over which ``lookahead_costs()`` and the masks
+are given) and returns the env's action for it (``UWBSchedulingEnv.action_of_plan``): the index itself for a
+``Discrete`` space, the per-transmitter waveforms ``(T,)`` for the ``MultiDiscrete`` space of per-tx plans
+(``UrbanDistributed-v0``). ``fixed-K`` plays plan K (for per-tx, K = w_1 W + w_2 ...: first transmitter slowest).
 """
 
 from __future__ import annotations
@@ -26,25 +31,49 @@ class Scheduler(Protocol):
 
     def reset(self, seed: int | None = None) -> None: ...  # noqa: D102
 
-    def act(self, obs: Any, env: gym.Env) -> int: ...  # noqa: D102
+    def act(self, obs: Any, env: gym.Env) -> Any: ...  # noqa: D102
 
 
 def _n_actions(env: gym.Env) -> int:
+    """The number of plans a scheduler chooses from: ``Discrete(n)``'s n, or the env's plans (``MultiDiscrete``)."""
     space = env.action_space
-    if not isinstance(space, gym.spaces.Discrete):
-        raise TypeError(f"action_space {space}: these schedulers need a Discrete action space")
-    return int(space.n)
+    if isinstance(space, gym.spaces.Discrete):
+        return int(space.n)
+    plans = getattr(env.unwrapped, "plans", None)
+    if isinstance(space, gym.spaces.MultiDiscrete) and plans is not None and hasattr(env.unwrapped, "action_of_plan"):
+        return len(plans)
+    raise TypeError(
+        f"action_space {space}: these schedulers need a Discrete action space or a MultiDiscrete one whose env "
+        "enumerates its plans (UWBSchedulingEnv with action_kind='per-tx')"
+    )
 
 
-def best_action(costs: np.ndarray, env: gym.Env) -> int:
-    """The valid action of least cost; ties to the most transmitted energy, then the lowest index."""
+def plan_masks(env: gym.Env) -> np.ndarray:
+    """``(n_plans,)`` the valid plans: ``plan_masks()`` where the env has it, else its (Discrete) ``action_masks()``."""
+    e = env.unwrapped
+    return e.plan_masks() if hasattr(e, "plan_masks") else e.action_masks()
+
+
+def to_action(plan: int, env: gym.Env) -> Any:
+    """The env's action for plan index ``plan`` (``action_of_plan``: the index, or per-transmitter waveforms)."""
+    e = env.unwrapped
+    return e.action_of_plan(int(plan)) if hasattr(e, "action_of_plan") else int(plan)
+
+
+def best_plan(costs: np.ndarray, env: gym.Env) -> int:
+    """The valid plan of least cost; ties to the most transmitted energy, then the lowest index."""
     e = env.unwrapped
     costs = np.asarray(costs, dtype=float)
-    mask = e.action_masks()
+    mask = plan_masks(env)
     if not mask.all():
         costs = np.where(mask, costs, np.inf)
     tied = np.flatnonzero(costs == costs.min())
     return int(tied[0]) if tied.size == 1 else int(tied[np.argmax(e.plan_energy_j[tied])])
+
+
+def best_action(costs: np.ndarray, env: gym.Env) -> Any:
+    """The env's action for :func:`best_plan` (an int for ``Discrete``, ``(T,)`` waveforms for ``MultiDiscrete``)."""
+    return to_action(best_plan(costs, env), env)
 
 
 class RoundRobin:
@@ -60,16 +89,16 @@ class RoundRobin:
         """Start again at the first valid action."""
         self._k = 0
 
-    def act(self, obs: Any, env: gym.Env) -> int:
-        """The next valid action of the cycle."""
-        _n_actions(env)  # a Discrete space, checked
-        valid = np.flatnonzero(env.unwrapped.action_masks())
+    def act(self, obs: Any, env: gym.Env) -> Any:
+        """The next valid plan of the cycle, as the env's action."""
+        _n_actions(env)  # a Discrete space or enumerated plans, checked
+        valid = np.flatnonzero(plan_masks(env))
         self._k += 1
-        return int(valid[(self._k - 1) % valid.size])
+        return to_action(int(valid[(self._k - 1) % valid.size]), env)
 
 
 class Fixed:
-    """Always ``action``."""
+    """Always plan ``action`` (the env's action for it: ``to_action``)."""
 
     def __init__(self, action: int) -> None:
         if action < 0:
@@ -80,12 +109,12 @@ class Fixed:
     def reset(self, seed: int | None = None) -> None:
         """Nothing to reset."""
 
-    def act(self, obs: Any, env: gym.Env) -> int:
-        """The fixed action (checked against the env)."""
+    def act(self, obs: Any, env: gym.Env) -> Any:
+        """The fixed plan's action (checked against the env)."""
         n = _n_actions(env)
         if self.action >= n:
             raise ValueError(f"Fixed action={self.action}: the env has {n} actions")
-        return self.action
+        return to_action(self.action, env)
 
 
 class Random:
@@ -100,10 +129,10 @@ class Random:
         """Reseed the generator."""
         self._rng = np.random.default_rng(seed)
 
-    def act(self, obs: Any, env: gym.Env) -> int:
-        """A uniform draw over the valid actions."""
-        mask = env.unwrapped.action_masks()
-        return int(self._rng.choice(np.flatnonzero(mask)))
+    def act(self, obs: Any, env: gym.Env) -> Any:
+        """A uniform draw over the valid plans (for per-tx: independent uniform waveforms over each one's valid)."""
+        mask = plan_masks(env)
+        return to_action(int(self._rng.choice(np.flatnonzero(mask))), env)
 
 
 class Myopic:
@@ -114,7 +143,7 @@ class Myopic:
     def reset(self, seed: int | None = None) -> None:
         """Nothing to reset."""
 
-    def act(self, obs: Any, env: gym.Env) -> int:
+    def act(self, obs: Any, env: gym.Env) -> Any:
         """Argmin over the valid actions of ``env.unwrapped.lookahead_costs()``."""
         return best_action(env.unwrapped.lookahead_costs(), env)
 
@@ -146,7 +175,7 @@ class DetectionConstrainedMyopic:
     def reset(self, seed: int | None = None) -> None:
         """Nothing to reset."""
 
-    def act(self, obs: Any, env: gym.Env) -> int:
+    def act(self, obs: Any, env: gym.Env) -> Any:
         """The constrained argmin (class docstring) over the valid actions."""
         e = env.unwrapped
         pd = e.detection_probabilities()
@@ -155,7 +184,7 @@ class DetectionConstrainedMyopic:
         used = pd > 0.0
         weakest = (pd.sum(axis=2) / np.maximum(used.sum(axis=2), 1)).min(axis=1)  # (A,) mean over the plan's pairs
         ok = weakest >= self.min_pd
-        if not (ok & e.action_masks()).any():
+        if not (ok & plan_masks(env)).any():
             return best_action(-weakest, env)
         return best_action(np.where(ok, e.lookahead_costs(), np.inf), env)
 
@@ -178,7 +207,7 @@ class MultiStepLookahead:
         """``(A,)`` the cheapest d-scan cost of the sequences starting with each action (``inf``: pruned)."""
         return env.unwrapped.sequence_costs(self.depth, self.beam, self.discount)
 
-    def act(self, obs: Any, env: gym.Env) -> int:
+    def act(self, obs: Any, env: gym.Env) -> Any:
         """Argmin over the valid actions of :meth:`costs`."""
         return best_action(self.costs(env), env)
 
