@@ -19,6 +19,7 @@ from uwb_env.envs.relative import (
     relative_feature_names,
     relative_track_features,
     relative_track_features_reference,
+    scene_arguments,
 )
 from uwb_env.scene.layout import SceneLayout
 
@@ -337,3 +338,27 @@ def test_bad_geometry_is_named():
             np.ones(1), np.ones(1, bool), np.ones((1, 3)), MODELS, np.zeros((1, 6)), np.eye(6)[None], tx, rx, b, ok,
             10.0, 5.0, 1,
         )  # fmt: skip
+
+
+def test_scene_arguments_of_the_urban_intersection():
+    """The sensor's layout, formed pairs and tracker models in the kernel's order; the range scale is the area's
+    half-diagonal, 0.5 hypot(300, 450) m; the compiled call with them equals the reference."""
+    cfg = scenarios.get("urban-intersection")
+    lay = SceneLayout.from_config(cfg)
+    pairs = np.array(cfg.radar_pairs, np.int64)
+    scene = scene_arguments(cfg, lay, pairs, MODELS)
+    tx, rx, boresight, pairs_out, single, turns, range_scale = scene
+    np.testing.assert_array_equal(tx, lay.tx_pos)
+    np.testing.assert_array_equal(rx, lay.rx_pos)
+    np.testing.assert_array_equal(pairs_out, [[0, 0], [0, 1]])
+    assert single.tolist() == [0, 1] and turns.tolist() == [[2, 3]]
+    assert range_scale == pytest.approx(0.5 * math.hypot(300.0, 450.0), rel=1e-15)
+    rng = np.random.default_rng(5)
+    _, _, _, _, existence, confirmed, mu, x, P = _scene(rng, 1, 1, 5)
+    x[:, 0:3:2] += lay.rx_pos[0]
+    got = relative_track_features(existence, confirmed, mu, x, P, *scene, 20.0, 4)
+    want = relative_track_features_reference(
+        existence, confirmed, mu, MODELS, x, P, tx, rx, boresight, pairs, range_scale, 20.0, 4
+    )
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+    assert got.shape == (4, 4 + 7 + 16 + 6 + 2 + 2)

@@ -84,7 +84,9 @@ from functools import lru_cache
 import numba as nb
 import numpy as np
 
+from uwb_env.config import ScenarioConfig
 from uwb_env.envs.features import slot_order
+from uwb_env.scene.layout import SceneLayout
 from uwb_env.typing import BoolArray, FloatArray, IntArray
 
 _jit = nb.njit(cache=True, fastmath=False, nogil=True, error_model="numpy")  # 0 variance: -inf, caught by the env
@@ -230,6 +232,42 @@ def check_geometry(
             raise ValueError(f"{name}={value!r}: must be finite and > 0")
     if n_slots < 0:
         raise ValueError(f"n_slots={n_slots!r}: must be >= 0")
+
+
+def scene_arguments(
+    cfg: ScenarioConfig,
+    layout: SceneLayout,
+    pairs: IntArray,
+    model_names: tuple[str, ...],
+    range_scale_m: float | None = None,
+) -> tuple[FloatArray, FloatArray, FloatArray, IntArray, IntArray, IntArray, float]:
+    """The scene's arguments of :func:`relative_track_features`, checked, in its order.
+
+    Returns ``(tx_pos, rx_pos, rx_boresight_rad, pairs, single_models, turn_pairs, range_scale_m)``, so that
+    ``relative_track_features(existence, confirmed, mu, x, P, *scene, v_max, n_slots)`` is the call. ``pairs``
+    ``(Q, 2)``: the sensor's formed (tx, rx) pairs; ``model_names``: the tracker's (``tracker.model_names``), grouped
+    by :func:`model_groups` and, when they are the scenario's IMM models (``cfg.tracker.models``), checked against
+    their turn rates. ``range_scale_m`` [m] defaults to the surveillance area's half-diagonal, which a mirror or a
+    quarter turn of the scene keeps (a node's range stays below 4 of it: the tracker deletes a track one area-size
+    outside the area).
+    """
+    models = cfg.tracker.models
+    rates = np.array([m.turn_rate_rps for m in models]) if tuple(m.name for m in models) == tuple(model_names) else None
+    single_models, turn_pairs = model_groups(model_names, rates)
+    if range_scale_m is None:
+        x0, x1, y0, y1 = layout.area
+        range_scale_m = 0.5 * math.hypot(x1 - x0, y1 - y0)
+    scene = (
+        np.ascontiguousarray(layout.tx_pos, dtype=np.float64),
+        np.ascontiguousarray(layout.rx_pos, dtype=np.float64),
+        np.ascontiguousarray(layout.rx_boresight_rad, dtype=np.float64),
+        np.ascontiguousarray(pairs, dtype=np.int64).reshape(-1, 2),
+        single_models,
+        turn_pairs,
+        float(range_scale_m),
+    )
+    check_geometry(scene[0], scene[1], scene[2], scene[3], scene[6], 1.0, 0)
+    return scene
 
 
 # ------------------------------------------------------------------------------------------- numpy reference
