@@ -27,6 +27,7 @@ from typing import Any, NoReturn
 import yaml
 
 from uwb_env.agents.campaign import BACKENDS, Campaign
+from uwb_env.agents.multiseed import expand_seed_schemes
 from uwb_env.agents.presets import PRESETS
 from uwb_env.agents.schedulers import scheduler_names
 from uwb_env.agents.storage import FolderLocked
@@ -47,6 +48,19 @@ TRAIN_DOC = """Train an RL scheduler (stable-baselines3 / sb3-contrib) on a regi
     uwb-env-train --env uwb_env/UrbanWaveform-v3 --algo maskable-ppo --timesteps 400000 --out runs/urban-mppo --resume
     uwb-env-train --env uwb_env/IndoorJoint-v1 --algo dqn --timesteps 50000 --hyper learning_rate=3e-4 \\
         --env-kwarg fidelity=parametric --out runs/joint-dqn
+
+Several training seeds (what rliable-style reporting needs; each seed's run is exactly a single run's):
+
+    uwb-env-train --env uwb_env/UrbanWaveform-v3 --timesteps 200000 --seeds 5 --out runs/urban-mppo-5
+    uwb-env-evaluate --schemes myopic rl:runs/urban-mppo-5 --baseline myopic --env-kwarg include_lookahead=true
+
+``--seeds N`` trains seeds ``--seed`` .. ``--seed + N - 1`` (default 0 .. N - 1) one after another into
+``OUT/seed-<s>/``, skips seeds whose run finished (run it again to continue a stopped job; add ``--resume`` to
+continue a seed interrupted mid-run, or to extend every seed to a larger ``--timesteps``), then plots
+``OUT/learning_curves.png`` (IQM across seeds, 95 % stratified-bootstrap band, myopic and round-robin; also
+``python scripts/learning_curves.py OUT``). In a campaign ``rl:OUT`` stands for every seed's run; the summary
+reports each seed, the IQM across seeds with its bootstrap interval and the probability of improvement over the
+baseline.
 
 Algorithms: ppo, a2c, dqn, maskable-ppo. Hyper-parameters come from the versioned preset
 ``agents/rl/presets/<Id>.yaml`` (``--hyper KEY=VALUE`` replaces an entry of the algorithm's block or of ``common``);
@@ -158,13 +172,24 @@ def evaluate_parser() -> argparse.ArgumentParser:
 
 
 def campaign_from_args(args: argparse.Namespace) -> Campaign:
-    """The campaign the parsed arguments describe (``ValueError`` naming the field when it is not valid)."""
+    """The campaign the parsed arguments describe (``ValueError`` naming the field when it is not valid).
+
+    A scheme ``rl:DIR`` (or ``rllib:DIR``) naming a multi-seed run becomes one scheme per seed
+    (``uwb_env.agents.multiseed.expand_seed_schemes``); the summary groups them back.
+    """
     preset = PRESETS[args.preset] if args.preset else {}
-    schemes = args.schemes or preset.get("schemes") or ["myopic", "round-robin"]
+    listed = args.schemes or preset.get("schemes") or ["myopic", "round-robin"]
+    baseline = args.baseline or (preset.get("baseline") if not args.schemes else None) or listed[-1]
+    if expand_seed_schemes([baseline]) != [baseline]:
+        raise ValueError(
+            f"baseline={baseline!r}: a multi-seed run (seed-<s>/ folders) cannot be the baseline; "
+            "name one seed's run (rl:DIR/seed-0) or another scheme, e.g. --baseline myopic"
+        )
+    schemes = expand_seed_schemes(listed)  # rl:DIR of a multi-seed run -> rl:DIR/seed-<s>, one per seed
     return Campaign(
         env=args.env or preset.get("env") or "uwb_env/UrbanWaveform-v3",
         schemes=tuple(schemes),
-        baseline=args.baseline or (preset.get("baseline") if not args.schemes else None) or schemes[-1],
+        baseline=baseline,
         runs=args.runs,
         seed0=args.seed0,
         overrides=parse_overrides(args.overrides, "--set"),
@@ -211,7 +236,10 @@ def train_parser() -> argparse.ArgumentParser:
     ap.add_argument("--algo", choices=ALGORITHM_NAMES, help="sb3: default maskable-ppo; rllib: ppo (default) or dqn")
     ap.add_argument("--timesteps", type=count(1), default=100_000, help="environment steps in total, >= 1")
     ap.add_argument("--out", type=folder, required=True, help="the run's folder")
-    ap.add_argument("--seed", type=count(0), default=0, help="the training seed, >= 0")
+    ap.add_argument("--seed", type=count(0), default=0, help="the training seed, >= 0 (with --seeds: the first)")
+    ap.add_argument(
+        "--seeds", type=count(1), help="train N seeds (--seed .. --seed + N - 1) into OUT/seed-<s>/, >= 1 (sb3)"
+    )
     ap.add_argument("--resume", action="store_true", help="continue from the newest readable checkpoint in --out")
     add_pairs(ap, "--hyper", "hyper", "preset entry (algorithm block or common); repeatable, several per flag")
     add_pairs(ap, "--env-kwarg", "env_kwargs", "argument of gymnasium.make; repeatable, several per flag")
@@ -294,6 +322,8 @@ def train_main(argv: Sequence[str] | None = None) -> None:
     ap = train_parser()
     args = ap.parse_args(argv)
     if args.engine == "rllib":
+        if args.seeds is not None:
+            ap.error("--seeds: only with --engine sb3 (train RLlib seeds one --seed at a time)")
         return train_rllib_main(ap, args)
     given = [name for name in RLLIB_ONLY if getattr(args, name) is not None]
     if given:
@@ -311,9 +341,18 @@ def train_main(argv: Sequence[str] | None = None) -> None:
             tensorboard=args.tensorboard,
             vectorize=args.vectorize,
         )
-        model = rl.train(cfg, resume=args.resume, progress=not args.no_progress)
+        if args.seeds is not None:
+            seeds = list(range(args.seed, args.seed + args.seeds))
+            plan = rl.train_seeds(cfg, seeds, resume=args.resume, progress=not args.no_progress)
+        else:
+            model = rl.train(cfg, resume=args.resume, progress=not args.no_progress)
     except (ValueError, FolderLocked) as e:
         ap.error(str(e))
+    if args.seeds is not None:
+        said = {"train": "trained", "resume": "resumed", "finished": "skipped: finished"}
+        done = ", ".join(f"{s} ({said[p]})" for s, p in plan.items())
+        print(f"trained {args.algo or 'maskable-ppo'} on {args.env}, seeds {done}; runs in {args.out}/seed-<s>/")
+        return
     print(f"trained {args.algo or 'maskable-ppo'} on {args.env}: {model.num_timesteps} steps; run in {args.out}/")
 
 

@@ -2,17 +2,41 @@
 
 Reads the run records a campaign wrote (:mod:`uwb_env.agents.campaign`) and writes ``runs.csv``, ``summary.md`` and
 seed 003's Figs. 4-6 (``confirmed_tracks.png``, ``position_rmse.png``, ``model_probabilities.png``).
+
+Across training seeds (:func:`across_seeds`): the schemes that are seeds of one multi-seed run (``rl:DIR/seed-<s>``,
+``uwb_env.agents.multiseed.seed_groups``) get a section of their own, in the convention of rliable (Agarwal et al.,
+"Deep reinforcement learning at the edge of the statistical precipice", NeurIPS 2021; ``uwb_env.agents.rliable``):
+
+* **runs = training seeds, one task = the campaign's environment, a run's score = its mean over the paired
+  episodes**, as rliable scores a run on a game by its mean evaluation return. The episodes are not taken as the
+  tasks: every episode is played by the same trained policy of a seed, so a seed's scores over the episodes are
+  not independent runs. Stratifying over episodes would resample seeds independently per episode, average a bad
+  seed away inside every replicate, and give intervals that leave out the seed-to-seed spread they are meant to
+  show. The mean over episodes uses the episodes where every seed of the group and the baseline have a finite
+  value (so the seeds and the baseline are compared on the same episodes).
+* **IQM across seeds** (25 % trimmed mean of the per-seed scores: with 5 seeds, the mean of the middle 3) with the
+  95 % percentile interval of the stratified bootstrap (one stratum: the seeds resampled with replacement),
+  10,000 replicates from ``numpy.random.default_rng([BOOTSTRAP_SEED, k])``, ``k`` the metric's index in
+  ``METRICS``.
+* **Probability of improvement** over the baseline scheme: the fraction of seeds whose score is better than the
+  baseline's score on the same episodes, ties counted 1/2 (the Mann-Whitney ``U / (n m)`` with the baseline one
+  run: the schedulers it is meant for, myopic and round-robin, are deterministic given the episode seed), and its
+  bootstrap interval. "Better" is :data:`HIGHER_IS_BETTER`: higher for the return and the (true) confirmed tracks,
+  lower for the errors, the traces, the costs, the false tracks and the energy.
 """
 
 from __future__ import annotations
 
+import csv
 import math
 import pathlib
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import stats
 
+from uwb_env.agents import rliable
 from uwb_env.agents.campaign import (
     METRICS,
     Campaign,
@@ -23,7 +47,16 @@ from uwb_env.agents.campaign import (
     preflight,
     run_campaign,
 )
-from uwb_env.agents.storage import FolderLock, atomic_write, atomic_write_text
+from uwb_env.agents.multiseed import seed_groups
+from uwb_env.agents.storage import FolderLock, atomic_write, atomic_write_text, read_error
+
+HIGHER_IS_BETTER = {"rmse_m": False, "ospa_m": False, "confirmed": True, "true_confirmed": True, "false": False,
+                    "trace_m2": False, "target_trace_m2": False, "target_cost_m2": False, "energy_j": False,
+                    "return": True}  # fmt: skip
+"""Which way each metric of ``METRICS`` improves (the probability of improvement's sign convention)."""
+BOOTSTRAP_SEED = 0  # the across-seeds intervals' generator: numpy.random.default_rng([BOOTSTRAP_SEED, metric index])
+BOOTSTRAP_REPS = 10_000
+CONFIDENCE = 0.95
 
 
 class CampaignInterrupted(Exception):
@@ -202,6 +235,7 @@ def summarise(campaign: Campaign, out: pathlib.Path, seeds: Sequence[int] | None
                 f"| {above} / {below} | {p} |"
             )
             lines.append(row + (f" {ref.get(m, '')} |" if ref else ""))
+    lines += across_seeds_lines(campaign.schemes, base, metrics)
     text = "\n".join(lines) + "\n"
     atomic_write_text(out / "summary.md", text)
     plot(campaign, runs, out)
@@ -257,3 +291,114 @@ def plot(campaign: Campaign, runs: dict[str, list[dict[str, np.ndarray]]], out: 
     fig.tight_layout()
     save_figure(fig, out / "model_probabilities.png")
     plt.close(fig)
+
+
+# ------------------------------------------------------------------------------------------ across training seeds
+@dataclass(frozen=True)
+class SeedAggregate:
+    """One metric of one multi-seed group (see the module docstring).
+
+    ``per_seed`` (seeds,): each seed's mean over the ``episodes`` paired episodes; ``baseline``: the baseline's
+    mean over them; ``iqm``: the IQM across seeds with its bootstrap interval; ``improvement``: the probability
+    that a seed beats the baseline, with its interval (``None`` for both when fewer than 2 seeds have a score, and
+    ``improvement`` ``None`` when the baseline is one of the group's seeds).
+    """
+
+    metric: str
+    seeds: tuple[int, ...]
+    per_seed: np.ndarray
+    episodes: int
+    baseline: float
+    iqm: rliable.Estimate | None
+    improvement: rliable.Estimate | None
+
+
+def across_seeds(
+    schemes: Sequence[str],
+    baseline: str,
+    metrics: Mapping[str, Mapping[str, np.ndarray]],
+    reps: int = BOOTSTRAP_REPS,
+    confidence: float = CONFIDENCE,
+    seed: int = BOOTSTRAP_SEED,
+) -> dict[str, dict[str, SeedAggregate]]:
+    """``{group: {metric: SeedAggregate}}`` for every multi-seed group among ``schemes`` (2 seeds or more).
+
+    ``metrics[scheme][metric]``: the per-run values (runs,), paired by index across schemes (``runs.csv``).
+    """
+    out: dict[str, dict[str, SeedAggregate]] = {}
+    for group, members in seed_groups(schemes).items():
+        seeds = tuple(s for s, _ in members)
+        rows = {}
+        for k, m in enumerate(METRICS):
+            values = np.stack([np.asarray(metrics[scheme][m], dtype=float) for _, scheme in members])  # (seeds, runs)
+            base = np.asarray(metrics[baseline][m], dtype=float)
+            paired = np.all(np.isfinite(values), axis=0) & np.isfinite(base)
+            episodes = int(paired.sum())
+            per_seed = values[:, paired].mean(axis=1) if episodes else np.full(len(seeds), np.nan)
+            base_mean = float(base[paired].mean()) if episodes else math.nan
+            iqm = improvement = None
+            if episodes and len(seeds) >= 2:
+                rng = np.random.default_rng([seed, k])
+                iqm = rliable.stratified_bootstrap_ci(per_seed, rliable.iqm, reps, confidence, rng)
+                if baseline not in {scheme for _, scheme in members}:
+                    sign = 1.0 if HIGHER_IS_BETTER[m] else -1.0
+                    improvement = rliable.probability_of_improvement_ci(
+                        sign * per_seed, np.array([sign * base_mean]), reps, confidence, rng
+                    )
+            rows[m] = SeedAggregate(m, seeds, per_seed, episodes, base_mean, iqm, improvement)
+        out[group] = rows
+    return out
+
+
+def across_seeds_lines(
+    schemes: Sequence[str], baseline: str, metrics: Mapping[str, Mapping[str, np.ndarray]]
+) -> list[str]:
+    """The ``summary.md`` section of :func:`across_seeds` (no lines without a multi-seed group)."""
+    lines: list[str] = []
+    for group, rows in across_seeds(schemes, baseline, metrics).items():
+        seeds = next(iter(rows.values())).seeds
+        pct = f"{100 * CONFIDENCE:.0f} %"
+        lines += ["", f"## Across training seeds: `{group}` (seeds {seed_span(seeds)})", ""]
+        lines += [
+            f"Per seed: its mean over the paired episodes (those finite for every seed and `{baseline}`). "
+            f"IQM: the 25 % trimmed mean across the {len(seeds)} seeds, with the {pct} stratified bootstrap "
+            f"interval ({BOOTSTRAP_REPS:,} replicates over seeds; rliable, Agarwal et al. 2021). "
+            f"P(improvement): the probability that a seed beats `{baseline}` on the metric (ties 1/2), "
+            "higher being better for the return and the confirmed tracks, lower for the rest.",
+            "",
+        ]
+        head = " | ".join(f"seed {s}" for s in seeds)
+        lines.append(f"| metric | better | {head} | IQM [{pct} CI] | {baseline} | IQM vs {baseline} "
+                     f"| P(improvement) [{pct} CI] | episodes |")  # fmt: skip
+        lines.append("| --- |" + " --- |" * (len(seeds) + 6))
+        for m, r in rows.items():
+            cells = " | ".join(f"{v:.4g}" for v in r.per_seed)
+            iqm = f"{r.iqm.point:.4g} [{r.iqm.low:.4g}, {r.iqm.high:.4g}]" if r.iqm else "-"
+            rel = relative(r.iqm.point - r.baseline, r.baseline) if r.iqm else "-"
+            poi = r.improvement
+            poi_text = f"{poi.point:.2f} [{poi.low:.2f}, {poi.high:.2f}]" if poi else "-"
+            better = "higher" if HIGHER_IS_BETTER[m] else "lower"
+            lines.append(f"| {METRICS[m]} | {better} | {cells} | {iqm} | {r.baseline:.4g} | {rel} | {poi_text} "
+                         f"| {r.episodes} |")  # fmt: skip
+    return lines
+
+
+def read_runs_csv(path: pathlib.Path) -> tuple[list[str], dict[str, dict[str, np.ndarray]]]:
+    """A campaign's ``runs.csv``: the schemes in order and ``{scheme: {metric: values by seed}}``.
+
+    ``ValueError`` naming the file when a column of ``METRICS`` is missing, a value is not a number, or the schemes
+    were not played on the same seeds.
+    """
+    path = pathlib.Path(path)
+    with read_error(path, f"a campaign's runs.csv (scheme, seed, {', '.join(METRICS)})"):
+        rows = list(csv.DictReader(path.read_text().splitlines()))
+        missing = [c for c in ("scheme", "seed", *METRICS) if rows and c not in rows[0]]
+        if not rows or missing:
+            raise ValueError(f"no rows, or columns {missing} missing")
+        schemes = list(dict.fromkeys(r["scheme"] for r in rows))
+        seeds = {s: [int(r["seed"]) for r in rows if r["scheme"] == s] for s in schemes}
+        if any(v != seeds[schemes[0]] for v in seeds.values()):
+            raise ValueError("the schemes were not played on the same seeds (the runs are not paired)")
+        metrics = {s: {m: np.array([float(r[m]) for r in rows if r["scheme"] == s]) for m in METRICS}
+                   for s in schemes}  # fmt: skip
+    return schemes, metrics

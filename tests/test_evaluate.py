@@ -135,3 +135,98 @@ def test_sign_rank_counts_and_p_value():
     d = np.array([0.0, 0.0, *np.arange(1.0, 11.0)])
     assert sign_rank(d) == (10, 0, "0.002")
     assert sign_rank(np.array([1.0, -2.0, 0.0, np.nan])) == (1, 1, "-")
+
+
+# ------------------------------------------------------------------------- across training seeds (issue 20, item 4)
+SEED_SCHEMES = [f"rl:runs/x/seed-{s}" for s in range(5)]
+ACROSS_RETURN = {"myopic": [3, 3, 3], 0: [1, 2, 3], 1: [4, 4, 4], 2: [0, 0, 3], 3: [10, 20, 30], 4: [3, 3, 3]}
+ACROSS_RMSE = {"myopic": [2, 1, 2], 0: [1, 9, 3], 1: [2, 9, 2], 2: [0.5, math.nan, 0.5], 3: [4, 9, 4], 4: [1, 9, 5]}
+
+
+def _write_runs_csv(path):
+    """A runs.csv of myopic and five seeds of rl:runs/x on episodes 0..2 (other metrics constant 1)."""
+    from uwb_env.agents.campaign import METRICS
+
+    lines = ["scheme,seed," + ",".join(METRICS)]
+    for key in ["myopic", *range(5)]:
+        scheme = key if key == "myopic" else SEED_SCHEMES[key]
+        for ep in range(3):
+            row = {m: 1.0 for m in METRICS} | {"return": ACROSS_RETURN[key][ep], "rmse_m": ACROSS_RMSE[key][ep]}
+            lines.append(f"{scheme},{ep}," + ",".join(str(row[m]) for m in METRICS))
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_across_seeds_per_seed_means_iqm_and_improvement_by_hand(tmp_path):
+    """Per-seed return means 2, 4, 1, 20, 3: IQM = mean of the middle three (2, 3, 4) = 3; myopic 3: P(improvement)
+    = (0 + 1 + 0 + 1 + 1/2) / 5 = 0.5. RMSE (lower is better) on the episodes finite for all (0 and 2): per seed
+    2, 2, 0.5, 4, 3 -> IQM (2 + 2 + 3) / 3, myopic 2, P = (1/2 + 1/2 + 1 + 0 + 0) / 5 = 0.4."""
+    from uwb_env.agents.summary import across_seeds, read_runs_csv
+
+    _write_runs_csv(tmp_path / "runs.csv")
+    schemes, metrics = read_runs_csv(tmp_path / "runs.csv")
+    assert schemes == ["myopic", *SEED_SCHEMES]
+    rows = across_seeds(schemes, "myopic", metrics)["rl:runs/x"]
+    ret, rmse = rows["return"], rows["rmse_m"]
+    assert ret.seeds == (0, 1, 2, 3, 4) and ret.episodes == 3
+    np.testing.assert_allclose(ret.per_seed, [2, 4, 1, 20, 3])
+    assert ret.iqm.point == pytest.approx(3.0) and ret.baseline == pytest.approx(3.0)
+    assert ret.improvement.point == pytest.approx(0.5)
+    assert rmse.episodes == 2
+    np.testing.assert_allclose(rmse.per_seed, [2, 2, 0.5, 4, 3])
+    assert rmse.iqm.point == pytest.approx(7 / 3) and rmse.baseline == pytest.approx(2.0)
+    assert rmse.improvement.point == pytest.approx(0.4)
+    # a constant metric: every seed ties with myopic, the interval collapses
+    energy = rows["energy_j"]
+    assert (energy.iqm.low, energy.iqm.high, energy.improvement.point) == (1.0, 1.0, 0.5)
+
+
+def test_across_seeds_interval_is_the_exact_bootstrap_percentile():
+    """The bootstrap over 5 seeds has 5^5 = 3,125 equally likely resamples: enumerate them for the exact
+    distribution of the IQM. With 10,000 replicates the 2.5 % percentile's empirical CDF has SE
+    sqrt(0.025 x 0.975 / 10^4) = 0.0016: the interval's ends lie between the exact 1.5 / 3.5 % and 96.5 / 98.5 %
+    quantiles (6 SE)."""
+    import itertools
+
+    from scipy import stats
+
+    from uwb_env.agents.campaign import METRICS
+    from uwb_env.agents.summary import across_seeds
+
+    metrics = {s: {m: np.ones(3) for m in METRICS} for s in ["myopic", *SEED_SCHEMES]}
+    per_seed = np.array([2.0, 4.0, 1.0, 20.0, 3.0])
+    for i, s in enumerate(SEED_SCHEMES):
+        metrics[s]["return"] = np.full(3, per_seed[i])
+    est = across_seeds(["myopic", *SEED_SCHEMES], "myopic", metrics)["rl:runs/x"]["return"].iqm
+    resamples = per_seed[np.array(list(itertools.product(range(5), repeat=5)))]  # (3125, 5)
+    exact = stats.trim_mean(resamples, 0.25, axis=1)
+    lo = np.quantile(exact, [0.015, 0.035], method="inverted_cdf")
+    hi = np.quantile(exact, [0.965, 0.985], method="inverted_cdf")
+    assert lo[0] <= est.low <= lo[1] and hi[0] <= est.high <= hi[1]
+    assert est.confidence == 0.95 and est.reps == 10_000
+
+
+def test_across_seeds_section_in_the_summary_text(tmp_path):
+    from uwb_env.agents.campaign import METRICS
+    from uwb_env.agents.summary import HIGHER_IS_BETTER, across_seeds_lines, read_runs_csv
+
+    assert set(HIGHER_IS_BETTER) == set(METRICS)  # a new metric needs its direction
+    _write_runs_csv(tmp_path / "runs.csv")
+    schemes, metrics = read_runs_csv(tmp_path / "runs.csv")
+    text = "\n".join(across_seeds_lines(schemes, "myopic", metrics))
+    assert "## Across training seeds: `rl:runs/x` (seeds 0..4)" in text
+    assert "| return | higher | 2 | 4 | 1 | 20 | 3 | 3 [" in text and "| 3 | +0.0 % | 0.50 [" in text
+    assert "| position RMSE [m] | lower | 2 | 2 | 0.5 | 4 | 3 | 2.333 [" in text and "| 0.40 [" in text
+    assert across_seeds_lines(["myopic", "rl:runs/y"], "myopic", metrics) == []  # no multi-seed group
+
+
+def test_read_runs_csv_refuses_unpaired_or_incomplete_files(tmp_path):
+    from uwb_env.agents.summary import read_runs_csv
+
+    _write_runs_csv(tmp_path / "runs.csv")
+    lines = (tmp_path / "runs.csv").read_text().splitlines()
+    (tmp_path / "short.csv").write_text("\n".join(lines[:-1]) + "\n")  # seed 4's last episode missing
+    with pytest.raises(ValueError, match=r"short\.csv.*not played on the same seeds"):
+        read_runs_csv(tmp_path / "short.csv")
+    (tmp_path / "cols.csv").write_text("scheme,seed,return\nmyopic,0,1\n")
+    with pytest.raises(ValueError, match=r"cols\.csv.*columns \['rmse_m'"):
+        read_runs_csv(tmp_path / "cols.csv")
