@@ -108,3 +108,18 @@ def test_learning_curves_refuse_folders_without_logs(tmp_path):
     (y / "seed-0" / "eval.csv").write_text("timesteps,return\n100,-3\n")
     with pytest.raises(ValueError, match=r"eval\.csv: cannot be read .* columns \['trace_m2'"):
         multiseed.learning_curves(y)
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--seeds", "0"], "argument --seeds: 0 must be >= 1"),
+        (["--engine", "rllib", "--seeds", "2"], "--seeds: only with --engine sb3"),
+    ],
+)
+def test_train_command_checks_seeds(tmp_path, capsys, argv, message):
+    from uwb_env.agents.cli import train_main
+
+    with pytest.raises(SystemExit) as e:
+        train_main([*argv, "--out", str(tmp_path / "r")])
+    assert e.value.code == 2 and message in capsys.readouterr().err

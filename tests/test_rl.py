@@ -174,3 +174,57 @@ def test_ppo_trains_and_plays_on_each_particle_tracker(tmp_path, kind):
     for _ in range(10):
         obs, reward, *_ = e.step(agent.act(obs, e))
         assert np.isfinite(reward)
+
+
+# ---------------------------------------------------------------------------- several training seeds (issue 20)
+def test_seeds_train_each_seed_as_a_single_run_skip_finished_and_resume_interrupted(tmp_path, capsys):
+    """``--seeds 2`` = two single runs (seed-1's model equals ``--seed 1`` alone); a stopped job continues."""
+    import pathlib
+
+    from uwb_env.agents.cli import train_main
+    from uwb_env.agents.rl import train_seeds
+    from uwb_env.agents.rl.training import trained_steps
+
+    env_id, out = ENV_IDS[1], tmp_path / "multi"
+    hyper = {**SMALL, **PER_ALGO["ppo"], "eval_freq": 64}
+    flags = [f"{k}={v}" for k, v in hyper.items()]
+    common = ["--env", env_id, "--algo", "ppo", "--timesteps", "128", "--no-progress", "--hyper", *flags]
+    train_main([*common, "--seed", "0", "--seeds", "2", "--out", str(out)])
+    assert "seeds 0 (trained), 1 (trained)" in capsys.readouterr().out
+    assert [trained_steps(out / f"seed-{s}") for s in (0, 1)] == [128, 128]
+    assert (out / "learning_curves.png").is_file()
+    rows = (out / "seed-1" / "eval.csv").read_text().splitlines()
+    assert rows[0].startswith("timesteps,return,trace_m2") and [r.split(",")[0] for r in rows[1:]] == ["64", "128"]
+    # seed 1 of the multi-seed run is exactly the single run of seed 1
+    train_main([*common, "--seed", "1", "--out", str(tmp_path / "single")])
+    a, b = load_scheduler(out / "seed-1").model.policy, load_scheduler(tmp_path / "single").model.policy
+    for (name, p), (_, q) in zip(a.state_dict().items(), b.state_dict().items(), strict=True):
+        np.testing.assert_array_equal(p.numpy(), q.numpy(), err_msg=name)
+    # seed 0 interrupted (its final model gone, checkpoints kept): refused without --resume, before training seed 2
+    (out / "seed-0" / "model.zip").unlink()
+    cfg = TrainConfig(env_id, "ppo", 128, out, overrides=hyper)
+    with pytest.raises(ValueError, match=r"unfinished run of seed 0 \(no final model.zip, --timesteps 128\)"):
+        train_seeds(cfg, [0, 1, 2], progress=False)
+    assert not (out / "seed-2").exists()
+    assert train_seeds(cfg, [0, 1, 2], resume=True, progress=False) == {0: "resume", 1: "finished", 2: "train"}
+    assert [trained_steps(out / f"seed-{s}") for s in (0, 1, 2)] == [128, 128, 128]
+    # a single run into a multi-seed folder, or a multi-seed run into a single run's folder, is refused
+    with pytest.raises(ValueError, match="holds a multi-seed run"):
+        train(TrainConfig(env_id, "ppo", 128, out, overrides=hyper), progress=False)
+    with pytest.raises(ValueError, match="holds a single training run"):
+        train_seeds(TrainConfig(env_id, "ppo", 128, pathlib.Path(tmp_path / "single"), overrides=hyper), [0])
+    with pytest.raises(ValueError, match="differs from the run's"):  # the seeds' run.yaml must match
+        train_seeds(TrainConfig(env_id, "ppo", 128, out, overrides={**hyper, "n_epochs": 3}), [0], resume=True)
+    # the campaign: rl:OUT plays every seed and the summary reports them across seeds
+    from uwb_env.agents.cli import evaluate_main
+    from uwb_env.agents.summary import read_runs_csv
+
+    camp = tmp_path / "campaign"
+    evaluate_main(["--env", env_id, "--schemes", "myopic", f"rl:{out}", "--baseline", "myopic", "--runs", "2",
+                   "--workers", "1", "--no-progress", "--out", str(camp)])  # fmt: skip
+    text = (camp / "summary.md").read_text()
+    assert f"## Across training seeds: `rl:{out}` (seeds 0..2)" in text
+    schemes, metrics = read_runs_csv(camp / "runs.csv")
+    assert schemes == ["myopic", *(f"rl:{out}/seed-{s}" for s in range(3))]
+    per_seed = " | ".join(f"{metrics[f'rl:{out}/seed-{s}']['return'].mean():.4g}" for s in range(3))
+    assert f"| return | higher | {per_seed} |" in text

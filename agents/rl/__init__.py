@@ -14,6 +14,7 @@ from uwb_env.agents.rl.training import (
     load_scheduler,
     make_vec_env,
     train,
+    train_seeds,
 )
 
 _RLLIB = ("RLLIB_ALGORITHMS", "MaskedUWBEnv", "RLlibPolicyScheduler", "RLlibTrainConfig", "load_rllib_scheduler",
@@ -38,5 +39,6 @@ __all__ = [
     "load_scheduler",
     "make_vec_env",
     "train",
+    "train_seeds",
     *_RLLIB,
 ]

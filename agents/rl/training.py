@@ -13,7 +13,9 @@ The pieces an RL-Zoo user expects, kept small:
   training) next to the myopic and round-robin schedulers, and the mean return and mean covariance trace of each are
   logged (``eval.csv``);
 * :func:`train`: builds or resumes (``resume=True``: the latest checkpoint with its step counter, normaliser and
-  replay buffer) and learns, writing checkpoints every ``checkpoint_freq`` steps, the final model and normaliser.
+  replay buffer) and learns, writing checkpoints every ``checkpoint_freq`` steps, the final model and normaliser;
+* :func:`train_seeds`: one such run per training seed into ``<out>/seed-<s>/`` (``uwb-env-train --seeds N``),
+  skipping finished seeds, then ``<out>/learning_curves.png`` (IQM across seeds, ``uwb_env.agents.multiseed``).
 
 Run directory layout: ``model.zip``, ``vecnormalize.pkl``, ``checkpoints/rl_model_<steps>_steps.zip`` (+
 ``rl_model_vecnormalize_<steps>_steps.pkl``, ``rl_model_replay_buffer_<steps>_steps.pkl``), ``progress.csv``,
@@ -32,7 +34,8 @@ import os
 import pickle
 import re
 import sys
-from dataclasses import dataclass, field
+import zipfile
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -51,6 +54,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv,
 from tqdm.auto import tqdm
 
 import uwb_env  # noqa: F401  (registers the env ids)
+from uwb_env.agents.multiseed import is_multi_seed, plot_learning_curves, seed_folder
 from uwb_env.agents.schedulers import make_scheduler
 from uwb_env.agents.storage import FolderLock, atomic_write, atomic_write_text, move_aside, read_error
 from uwb_env.envs import ENV_IDS
@@ -528,7 +532,20 @@ def train(cfg: TrainConfig, resume: bool = False, progress: bool = True) -> Base
     if common.get("vec_env") == "batched":
         make_batched(cfg.env_id, 1, cfg.env_kwargs).close()  # refused before anything is written
     out = cfg.out
-    run_yaml = {
+    if is_multi_seed(out):
+        raise ValueError(f"{out}: holds a multi-seed run (seed-<s>/ folders); add --seeds N, or use another --out")
+    meta = run_record(cfg, common, hyper, version)
+    with FolderLock(out, "training"):
+        check_run_folder(out, meta, resume, RESUME_FIXED)
+        return _train(cfg, common, hyper, resume, progress, yaml.safe_dump(meta, sort_keys=True))
+
+
+RESUME_FIXED = ("env_id", "algo", "seed", "env_kwargs", "common", "hyper")  # a resumed run's run.yaml must match
+
+
+def run_record(cfg: TrainConfig, common: dict, hyper: dict, version: int) -> dict[str, Any]:
+    """The run's ``run.yaml``: the configuration resolved from the preset and the overrides."""
+    return {
         "env_id": cfg.env_id,
         "algo": cfg.algo,
         "seed": cfg.seed,
@@ -538,9 +555,6 @@ def train(cfg: TrainConfig, resume: bool = False, progress: bool = True) -> Base
         "common": common,
         "hyper": hyper,
     }
-    with FolderLock(out, "training"):
-        check_run_folder(out, run_yaml, resume, ("env_id", "algo", "seed", "env_kwargs", "common", "hyper"))
-        return _train(cfg, common, hyper, resume, progress, yaml.safe_dump(run_yaml, sort_keys=True))
 
 
 def check_run_folder(out: Path, run_yaml: dict, resume: bool, fixed: tuple[str, ...]) -> None:
@@ -610,3 +624,83 @@ def _train(cfg: TrainConfig, common: dict, hyper: dict, resume: bool, progress: 
         atomic_write(out / "vecnormalize.pkl", lambda f: pickle.dump(venv, f))
     venv.close()
     return model
+
+
+# ----------------------------------------------------------------------------------------- several training seeds
+def trained_steps(out: Path) -> int | None:
+    """The step counter saved in a run's final ``model.zip`` (SB3 keeps it in the zip's ``data`` JSON).
+
+    ``None`` when there is no final model yet, or it cannot be read (the run is then not finished: ``--resume``
+    continues it from its checkpoints and writes a new one).
+    """
+    path = out / "model.zip"
+    try:
+        with zipfile.ZipFile(path) as z:
+            return int(json.loads(z.read("data"))["num_timesteps"])
+    except (OSError, KeyError, ValueError, TypeError, zipfile.BadZipFile):
+        return None
+
+
+SEED_PLANS = ("train", "resume", "finished")
+
+
+def plan_seeds(cfg: TrainConfig, seeds: list[int], resume: bool) -> dict[int, str]:
+    """What :func:`train_seeds` does with each seed's folder: ``train`` (new), ``resume`` or ``finished`` (skipped).
+
+    A finished run is one whose ``model.zip`` holds at least ``cfg.timesteps`` steps; its ``run.yaml`` must match
+    the configuration (else ``ValueError`` naming the key). An unfinished run is resumed with ``resume``, refused
+    without it (``ValueError`` naming the folder), before any seed is trained.
+    """
+    common, hyper, version = resolve(cfg)
+    plan = {}
+    for seed in seeds:
+        one = replace(cfg, seed=seed, out=seed_folder(cfg.out, seed))
+        if not (one.out / "run.yaml").is_file():
+            plan[seed] = "train"
+            continue
+        check_run_folder(one.out, run_record(one, common, hyper, version), True, RESUME_FIXED)
+        steps = trained_steps(one.out)
+        if steps is not None and steps >= cfg.timesteps:
+            plan[seed] = "finished"
+        elif resume:
+            plan[seed] = "resume"
+        else:
+            done = f"its model.zip holds {steps} steps" if steps is not None else "no final model.zip"
+            raise ValueError(
+                f"{one.out}: an unfinished run of seed {seed} ({done}, --timesteps {cfg.timesteps}): "
+                "use --resume to continue it, or another --out"
+            )
+    return plan
+
+
+def train_seeds(cfg: TrainConfig, seeds: list[int], resume: bool = False, progress: bool = True) -> dict[int, str]:
+    """Train one run per training seed into ``cfg.out/seed-<s>/`` (``uwb-env-train --seeds N``); the plan per seed.
+
+    Each seed's run is exactly :func:`train` with ``seed=s, out=cfg.out/seed-<s>``. Seeds whose run finished are
+    skipped, so a stopped multi-seed job run again continues where it stopped; with ``resume`` an interrupted run
+    continues from its checkpoints (:func:`plan_seeds`). Everything is checked before anything is trained; the
+    folder is locked throughout. At the end, ``cfg.out/learning_curves.png``
+    (``uwb_env.agents.multiseed.plot_learning_curves``) when the seeds have evaluation logs.
+    """
+    if not seeds or len(set(seeds)) != len(seeds) or any(isinstance(s, bool) or s < 0 for s in seeds):
+        raise ValueError(f"seeds={seeds!r}: must be distinct integers >= 0, at least one")
+    common, _, _ = resolve(cfg)
+    check_env(cfg)
+    if common.get("vec_env") == "batched":
+        make_batched(cfg.env_id, 1, cfg.env_kwargs).close()
+    if (cfg.out / "run.yaml").is_file():
+        raise ValueError(f"{cfg.out}: holds a single training run (run.yaml); a multi-seed run needs its own --out")
+    with FolderLock(cfg.out, "multi-seed training"):
+        plan = plan_seeds(cfg, seeds, resume)
+        for seed in seeds:
+            if plan[seed] == "finished":
+                print(f"seed {seed}: finished in {seed_folder(cfg.out, seed)}, skipped", file=sys.stderr)
+                continue
+            print(f"seed {seed}: {'resuming' if plan[seed] == 'resume' else 'training'}", file=sys.stderr)
+            one = replace(cfg, seed=seed, out=seed_folder(cfg.out, seed))
+            train(one, resume=plan[seed] == "resume", progress=progress)
+        try:
+            plot_learning_curves(cfg.out)
+        except ValueError as e:  # no evaluation yet (eval_freq beyond the budget)
+            print(f"no learning curves: {e}", file=sys.stderr)
+    return plan
