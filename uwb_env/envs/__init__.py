@@ -90,15 +90,39 @@ Version history:
     * ``UrbanWaveform-v0``: ``Discrete(4)``, azimuth measured, single-pulse chirp bound, 22-50 dB SNR."""
 
 
+# ------------------------------------------------------------------ scene families (issue 20, item 3)
+FAMILY_ENV_IDS = {
+    "uwb_env/UrbanFamily-v0": {"family": "urban-intersection", "split": "train", "action_kind": "waveform"},
+    "uwb_env/UrbanWidebandFamily-v0": {
+        "family": "urban-intersection-wideband",
+        "split": "train",
+        "action_kind": "waveform",
+    },
+}
+"""Scene-family ids (``uwb_env.envs.family.SceneFamilyEnv``): every episode a variant of seed 003's intersection
+(D4 orientation, left / straight / right path, 1-3 vehicles, jittered births; ``uwb_env.scenarios.families``) drawn by
+the reset seed from ``split`` (``train`` by default; ``gymnasium.make(id, split="heldout")`` for the held-out cells,
+``"all"`` for every cell). They are in :data:`ENV_IDS` (so training and campaigns take them) with their own entry
+point and no batched ``vector_entry_point`` (Gymnasium's sync / async vector envs and SB3's work)."""
+ENV_IDS.update(FAMILY_ENV_IDS)
+# ------------------------------------------------------------------ end of scene families
+
+
 def register_envs() -> None:
     """Register every id of :data:`ENV_IDS` with gymnasium (idempotent).
 
     Each id has a ``vector_entry_point``: ``gymnasium.make_vec(id, num_envs=N, vectorization_mode=
     "vector_entry_point")`` gives the batched ``uwb_env.envs.vector.UWBVectorEnv``.
+    The scene-family ids (:data:`FAMILY_ENV_IDS`) are ``SceneFamilyEnv``'s, without a ``vector_entry_point``.
     """
     import gymnasium as gym
 
+    for env_id, kwargs in FAMILY_ENV_IDS.items():  # scene families: their own entry point
+        if env_id not in gym.registry:
+            gym.register(id=env_id, entry_point="uwb_env.envs.family:SceneFamilyEnv", kwargs=dict(kwargs))
     for env_id, kwargs in ENV_IDS.items():
+        if env_id in FAMILY_ENV_IDS:  # registered above
+            continue
         if env_id not in gym.registry:
             gym.register(
                 id=env_id,
