@@ -68,7 +68,8 @@ def expand_seed_schemes(schemes: Sequence[str]) -> list[str]:
     """Each ``rl:DIR[@TRACKER]`` (or ``rllib:``) whose ``DIR`` is a multi-seed run -> one scheme per seed, by seed.
 
     ``rl:runs/x@imm-lmipda`` -> ``rl:runs/x/seed-0@imm-lmipda``, ``rl:runs/x/seed-1@imm-lmipda``, ...; every other
-    scheme is kept as it is. A scheme listed twice after the expansion raises ``ValueError`` naming it.
+    scheme is kept as it is. A run listed twice by the expansion (``rl:runs/x`` and ``rl:runs/x/seed-0``) raises
+    ``ValueError`` naming it; a scheme the arguments list twice is left to ``Campaign``, which refuses it.
     """
     out: list[str] = []
     for scheme in schemes:
@@ -79,7 +80,7 @@ def expand_seed_schemes(schemes: Sequence[str]) -> list[str]:
             out += [f"{prefix}{folder}{at}{tracker}" for _, folder in seed_runs(path)]
         else:
             out.append(scheme)
-    twice = sorted({s for s in out if out.count(s) > 1})
+    twice = sorted({s for s in out if out.count(s) > 1 and list(schemes).count(s) < 2})  # the Campaign names the rest
     if twice:
         raise ValueError(f"schemes: {twice} listed twice once multi-seed runs are expanded (list each run once)")
     return out
