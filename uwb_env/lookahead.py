@@ -53,6 +53,7 @@ a receiver switched in pays off one scan later, which depth 1 cannot see.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -106,12 +107,20 @@ def expected_posterior(
     check_q2(q2)
     A, N = len(plans), x.shape[0]
     x, P = np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(P, dtype=float)
-    Pa = np.repeat(P[None], A, axis=0)
     if N == 0:
-        return Pa
+        return np.repeat(P[None], A, axis=0)
     cfg = tracker.cfg
     table = _plan_table(plans)
-    for tx, rx in sensor.pairs.tolist():
+    pairs = sensor.pairs.tolist()
+    groups = None if delivering is not None else table.pair_groups(pairs)
+    rep = None
+    # without shared prefixes: every plan's own covariances; with them, one per group of plans (module docstring)
+    Pa = np.repeat(P[None], A, axis=0) if groups is None else P[None]
+    for p, (tx, rx) in enumerate(pairs):
+        if groups is not None:  # the groups after pair p, each from its parent group before it
+            rep, parent = groups[0][p]
+            if parent is not None:
+                Pa = Pa[parent]
         if delivering is None:
             used, sent, which, every = table.pair_waveforms(tx, rx)
         else:
@@ -146,8 +155,10 @@ def expected_posterior(
             rho_w = np.maximum(sensor.clutter_intensity_at(tx, rx, z_pred, R_w, sent), cfg.min_clutter_intensity)
             rho[used] = rho_w[which]  # (every: which is the identity)
         reduction = reduction_model(q2, m, cfg.gate_probability)
+        if rep is not None:  # the groups' representative plans
+            R, pd, rho, period = R[rep], pd[rep], rho[rep], period[rep]
         Pa = tracker.expected_update(Pa, x, P, names, tx_pos, rx_pos, R, pd, reduction, rho, period)
-    return Pa
+    return Pa if groups is None or groups[1] is None else Pa[groups[1]]
 
 
 def check_q2(q2: float | str) -> None:
@@ -255,6 +266,41 @@ class _PlanTable:
         self.waveforms = np.array([p.waveform for p in plans])
         self.listening = _listening(plans)
         self._pairs: dict[tuple[int, int], tuple[BoolArray, np.ndarray, np.ndarray, bool]] = {}
+        self._groups: dict[tuple, Any] = {}
+
+    def pair_groups(self, pairs: list[list[int]]) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray] | None:
+        """The plans' shared prefixes along the formed ``pairs`` (in the update order), or None if none is shared.
+
+        Pair p's expected update of plan a depends only on the covariance before it and on what the plan does at
+        the pair: whether its receiver listens and, if so, the waveform its transmitter sends. Plans that do the same
+        at pairs 0..p share their covariance after pair p: one group. Returns, per pair, the groups' representative
+        plans ``rep (G_p,)`` and their parent groups before the pair ``(G_p,)``, and every plan's final group
+        ``(A,)``, each None where it is the identity (nothing to gather); None when no pair has fewer groups than
+        plans (nothing to share: the plain per-plan update).
+        Per-tx plans share the first transmitter's pairs: W groups there, not W^T.
+        """
+        key = tuple(map(tuple, pairs))
+        if key not in self._groups:
+            A = len(self.plans)
+            group = np.zeros(A, np.int64)
+            chain = []
+            for tx, rx in pairs:
+                what = np.where(self.listening[:, rx], self.waveforms[:, tx] + 1, 0)  # 0: not listening
+                _, rep, inverse = np.unique(
+                    group * (int(what.max()) + 1) + what, return_index=True, return_inverse=True
+                )
+                parent = group[rep]
+                chain.append((rep, parent))
+                group = inverse.reshape(A)
+            shared = any(rep.size < A for rep, _ in chain)
+
+            def identity(a: np.ndarray, n: int) -> np.ndarray | None:
+                return None if a.size == n and np.array_equal(a, np.arange(n)) else a
+
+            sizes = [1] + [rep.size for rep, _ in chain]
+            chain = [(identity(r, A), identity(q, sizes[i])) for i, (r, q) in enumerate(chain)]
+            self._groups[key] = (chain, identity(group, sizes[-1])) if shared else None
+        return self._groups[key]
 
     def pair_waveforms(self, tx: int, rx: int) -> tuple[BoolArray, np.ndarray, np.ndarray, bool]:
         """``(used (A,), sent (W,), which (A_used,), every)`` of pair (tx, rx); every: all plans, sent[a] by plan a."""
