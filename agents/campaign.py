@@ -80,6 +80,8 @@ from uwb_env.agents.storage import (
 )
 from uwb_env.config import TRACKER_KINDS, apply_overrides, open_loop_tracker
 from uwb_env.envs import ENV_IDS, UWBSchedulingEnv
+from uwb_env.envs.family import SceneFamilyEnv
+from uwb_env.scenarios.families import get_family
 
 TRACKERS = ("scenario", "open-loop", *TRACKER_KINDS)
 METRICS = {
@@ -174,8 +176,21 @@ def parse_scheme(scheme: str) -> tuple[str, str]:
 
 
 def make_env(campaign: Campaign, tracker: str) -> UWBSchedulingEnv:
-    """The campaign's environment (the registered id's arguments, the overrides, the scheme's tracker)."""
+    """The campaign's environment (the registered id's arguments, the overrides, the scheme's tracker).
+
+    A scene-family id (``uwb_env.envs.FAMILY_ENV_IDS``) gives a ``SceneFamilyEnv``: the overrides and the scheme's
+    tracker apply to every variant it draws (the open-loop tracker as overrides of the tracker's model fields).
+    """
     kwargs = {**ENV_IDS[campaign.env], **campaign.env_kwargs}
+    if "family" in kwargs:
+        overrides = dict(campaign.overrides)
+        if tracker == "open-loop":
+            single = open_loop_tracker(scenarios.get(get_family(kwargs["family"]).scenario).tracker)
+            fields = ("models", "transition", "default_models", "model_set_windows")
+            overrides.update({f"tracker.{f}": getattr(single, f) for f in fields})
+        elif tracker in TRACKER_KINDS:
+            kwargs["tracker"] = tracker
+        return SceneFamilyEnv(**kwargs, **overrides)  # type: ignore[return-value]
     cfg = apply_overrides(scenarios.get(kwargs.pop("scenario")), campaign.overrides)
     if tracker == "open-loop":
         cfg = dataclasses.replace(cfg, tracker=open_loop_tracker(cfg.tracker))
