@@ -228,3 +228,11 @@ def test_seeds_train_each_seed_as_a_single_run_skip_finished_and_resume_interrup
     assert schemes == ["myopic", *(f"rl:{out}/seed-{s}" for s in range(3))]
     per_seed = " | ".join(f"{metrics[f'rl:{out}/seed-{s}']['return'].mean():.4g}" for s in range(3))
     assert f"| return | higher | {per_seed} |" in text
+
+
+def test_learning_curves_read_the_columns_training_writes():
+    from uwb_env.agents.multiseed import CURVE_METRICS, REFERENCES
+    from uwb_env.agents.rl.training import EVAL_COLUMNS
+
+    need = ["timesteps", *CURVE_METRICS, *(f"{r}_{m}" for r in REFERENCES for m in CURVE_METRICS)]
+    assert sorted(need) == sorted(EVAL_COLUMNS)
