@@ -63,7 +63,10 @@ from uwb_env.typing import BoolArray, FloatArray, IntArray
 LINEARISATIONS = ("ekf", "ukf")
 DOMINANCE_RTOL = 1e-9
 """Relative tolerance of the Loewner and cost comparisons of the dominance prune (rounding, not modelling)."""
+MAX_DOMINATORS = 256
+"""The cheapest prefixes of a level tried as dominators of the others (``_undominated``)."""
 _PAIR_CHUNK = 2_000_000  # most (i, j, target, diagonal) entries compared at once in the dominance prune
+_EIG_CHUNK = 32_768  # most pairs whose difference's eigenvalues are computed at once
 
 
 # ---------------------------------------------------------------------------------------------- recursion state
@@ -560,25 +563,30 @@ def optimal_schedule(
     )
 
 
-def _undominated(P: FloatArray, cost: FloatArray, ready: BoolArray | None) -> IntArray:
-    """Indices of the prefixes no other dominates (module docstring (b)), in order.
+def _undominated(
+    P: FloatArray, cost: FloatArray, ready: BoolArray | None, max_dominators: int = MAX_DOMINATORS
+) -> IntArray:
+    """Indices of the prefixes that no other dominates (module docstring (b)), in order.
 
     ``P (M, N, n, n)`` the compared targets' covariances, ``cost (M,)`` sorted ascending, ``ready (M, R)`` or None.
     i dominates j: cost_i <= cost_j, P_j - P_i >= 0 for every target (least eigenvalue >= -rtol trace P_j) and
-    ready_i >= ready_j. Of prefixes that dominate each other (equal to rounding) the first is kept. The candidate
-    pairs are found by the necessary conditions on costs and diagonals (chunked), then checked by eigenvalues.
+    ready_i >= ready_j. Only the ``max_dominators`` cheapest prefixes are tried as dominators (dropping fewer is
+    still exact; a dominator must be cheaper, so the cheap ones are where they are). Of prefixes that dominate each
+    other (equal to rounding) the first is kept. Candidate pairs pass the necessary conditions on costs and
+    diagonals (chunked), then the eigenvalue test (chunked; a prefix already dropped is not tested again).
     """
     M, N, n = P.shape[0], P.shape[1], P.shape[2]
     if N == 0:  # nothing to compare: every prefix is as good as the cheapest for the future
         return np.arange(min(M, 1))
+    D = min(M, max_dominators)
     diag = np.diagonal(P, axis1=-2, axis2=-1).reshape(M, N * n)
     scale = np.trace(P, axis1=-2, axis2=-1)  # (M, N)
     tol_diag = DOMINANCE_RTOL * np.repeat(scale, n, axis=1)  # (M, N n)
     cost_tol = cost * (1.0 + DOMINANCE_RTOL) + 1e-300
     rows = max(1, _PAIR_CHUNK // max(1, M * N * n))
     pi, pj = [], []
-    for lo in range(0, M, rows):  # chunks of candidate dominators i
-        i = np.arange(lo, min(lo + rows, M))
+    for lo in range(0, D, rows):  # chunks of candidate dominators i
+        i = np.arange(lo, min(lo + rows, D))
         cand = cost[i][:, None] <= cost_tol[None, :]
         cand &= (diag[i][:, None] <= diag[None] + tol_diag[None]).all(axis=-1)
         if ready is not None:
@@ -588,18 +596,32 @@ def _undominated(P: FloatArray, cost: FloatArray, ready: BoolArray | None) -> In
         pi.append(i[a])
         pj.append(b)
     ii, jj = np.concatenate(pi), np.concatenate(pj)
-    if ii.size:
-        least = np.linalg.eigvalsh(P[jj] - P[ii]).min(axis=-1)  # (pairs, N)
-        ok = (least >= -DOMINANCE_RTOL * scale[jj]).all(axis=-1)
-        ii, jj = ii[ok], jj[ok]
-    if not ii.size:
-        return np.arange(M)
-    pairs = ii * M + jj
-    mutual = np.isin(jj * M + ii, pairs)
-    drops = jj[~mutual | (ii < jj)]
     keep = np.ones(M, bool)
-    keep[drops] = False
+    inner = jj < D  # among the dominators: ties resolved by order
+    di, dj = ii[inner], jj[inner]
+    if di.size:
+        ok = _loewner_ge(P, scale, dj, di)
+        di, dj = di[ok], dj[ok]
+        mutual = np.isin(dj * M + di, di * M + dj)
+        keep[dj[~mutual | (di < dj)]] = False
+    oi, oj = ii[~inner], jj[~inner]  # the others: any dominator drops them (they dominate nobody here)
+    for lo in range(0, oi.size, _EIG_CHUNK):
+        i, j = oi[lo : lo + _EIG_CHUNK], oj[lo : lo + _EIG_CHUNK]
+        live = keep[j]
+        i, j = i[live], j[live]
+        if i.size:
+            keep[j[_loewner_ge(P, scale, j, i)]] = False
     return np.flatnonzero(keep)
+
+
+def _loewner_ge(P: FloatArray, scale: FloatArray, j: IntArray, i: IntArray) -> BoolArray:
+    """``(pairs,)`` P[j] >= P[i] in the Loewner order for every target, to ``DOMINANCE_RTOL`` (chunked)."""
+    out = np.empty(i.size, bool)
+    for lo in range(0, i.size, _EIG_CHUNK):
+        a, b = i[lo : lo + _EIG_CHUNK], j[lo : lo + _EIG_CHUNK]
+        least = np.linalg.eigvalsh(P[b] - P[a]).min(axis=-1)  # (pairs, N)
+        out[lo : lo + _EIG_CHUNK] = (least >= -DOMINANCE_RTOL * scale[b]).all(axis=-1)
+    return out
 
 
 def brute_force_schedule(recursion: Any, start: RecursionState | None, horizon: int) -> tuple[IntArray, float]:
