@@ -110,6 +110,9 @@ def test_spaces_are_the_inner_envs_and_a_family_that_would_change_them_is_refuse
     env = SceneFamilyEnv(include_lookahead=True)
     plain = UWBSchedulingEnv("urban-intersection", include_lookahead=True)
     assert env.observation_space == plain.observation_space and env.action_space == plain.action_space
+    assert env.cover_gate_m == 5.0 and env.n_slots == 8 and env.include_lookahead  # the inner env's attributes
+    with pytest.raises(AttributeError, match="_nothing"):
+        env._nothing  # noqa: B018
 
     @dataclasses.dataclass(frozen=True)
     class FewerWaveforms(SceneFamily):

@@ -25,7 +25,8 @@ can stack it whatever the count), plus the variant as numbers: ``variant_orienta
 
 ``action_masks()``, ``lookahead_costs()``, ``detection_probabilities()``, ``search_information()``,
 ``sequence_costs()``, ``describe_action()``, ``plans``, ``plan_energy_j``, ``sim`` and ``cfg`` are the current inner
-env's (the schedulers of ``uwb_env.agents.schedulers`` and the campaigns read them through ``env.unwrapped``).
+env's (the schedulers of ``uwb_env.agents.schedulers`` and the campaigns read them through ``env.unwrapped``), and so is
+any other public attribute (``cover_gate_m``, ``n_slots``, ...).
 """
 
 from __future__ import annotations
@@ -247,8 +248,20 @@ class SceneFamilyEnv(gym.Env):
 
     @property
     def inner(self) -> UWBSchedulingEnv:
-        """The current variant's ``UWBSchedulingEnv``."""
+        """The current variant's ``UWBSchedulingEnv``.
+
+        Before the first ``reset``: the family's reference variant (its split's first cell, ``max_targets`` vehicles).
+        """
         return self._env
+
+    def __getattr__(self, name: str) -> Any:
+        """Any other public attribute of the current inner env (``cover_gate_m``, ``n_slots``, ``action_kind``, ...).
+
+        Only called when normal lookup fails; private and dunder names are not delegated.
+        """
+        if name.startswith("_") or "_env" not in self.__dict__:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        return getattr(self.__dict__["_env"], name)
 
 
 __all__ = ["VARIANT_STREAM_INDEX", "SceneFamilyEnv", "variant_generator"]
