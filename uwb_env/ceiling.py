@@ -495,6 +495,7 @@ def optimal_schedule(
     *,
     dominance: bool | None = None,
     rollouts: int = 4,
+    max_dominators: int = MAX_DOMINATORS,
 ) -> SearchResult:
     """The cheapest ``horizon``-scan action sequence from ``start`` (module docstring: (a) and (b)).
 
@@ -503,11 +504,14 @@ def optimal_schedule(
         dominance: prune dominated prefixes; None: where exact (``recursion.dominance_exact``); True where it is not
             exact raises.
         rollouts: greedy rollouts per level from the cheapest surviving prefixes (incumbents; 0: root only).
+        max_dominators: the cheapest prefixes of a level tried as dominators (``_undominated``), >= 1.
     """
     if not isinstance(horizon, (int, np.integer)) or isinstance(horizon, bool) or horizon < 1:
         raise ValueError(f"horizon={horizon!r}: must be an integer >= 1")
     if not isinstance(rollouts, (int, np.integer)) or isinstance(rollouts, bool) or rollouts < 0:
         raise ValueError(f"rollouts={rollouts!r}: must be an integer >= 0")
+    if not isinstance(max_dominators, (int, np.integer)) or isinstance(max_dominators, bool) or max_dominators < 1:
+        raise ValueError(f"max_dominators={max_dominators!r}: must be an integer >= 1")
     exact = bool(recursion.dominance_exact)
     if dominance is None:
         dominance = exact
@@ -545,7 +549,8 @@ def optimal_schedule(
         keep = keep[np.argsort(total[keep], kind="stable")]  # cheapest first
         if dominance and keep.size > 1:
             kept = children.rows(keep)
-            keep = keep[_undominated(kept.P[:, recursion.cost_targets(kept.scan)], total[keep], kept.ready)]
+            compared = kept.P[:, recursion.cost_targets(kept.scan)]
+            keep = keep[_undominated(compared, total[keep], kept.ready, max_dominators)]
         state, cum, seqs = children.rows(keep), total[keep], child_seqs[keep]
         if rollouts and state.size and level < horizon - 2:  # incumbents from the cheapest prefixes
             n = min(rollouts, state.size)

@@ -65,10 +65,12 @@ def test_dominance_never_removes_the_optimum(seed, n_actions, horizon, n, m, n_t
     rec = random_linear(seed, n_actions, n_targets, n, m)
     _, cost = brute_force_schedule(rec, None, horizon)
     with_dominance = optimal_schedule(rec, None, horizon, dominance=True, rollouts=0)
+    few_dominators = optimal_schedule(rec, None, horizon, dominance=True, rollouts=0, max_dominators=2)
     without = optimal_schedule(rec, None, horizon, dominance=False, rollouts=0)
-    assert with_dominance.cost == pytest.approx(cost, rel=1e-9)
-    assert without.cost == pytest.approx(cost, rel=1e-9)
-    assert with_dominance.scored <= without.scored
+    for res in (with_dominance, few_dominators, without):
+        assert res.cost == pytest.approx(cost, rel=1e-9)
+        assert schedule_cost(rec, res.actions) == pytest.approx(cost, rel=1e-9)
+    assert with_dominance.scored <= few_dominators.scored <= without.scored
 
 
 def test_scalar_kalman_closed_form():
@@ -131,8 +133,10 @@ def test_urban_search_prunes_and_ukf_form_is_exact_without_dominance(urban):
     env, rec, state = urban
     res = optimal_schedule(rec, state, 4)
     bound_only = optimal_schedule(rec, state, 4, dominance=False)
+    few = optimal_schedule(rec, state, 4, max_dominators=3)  # most prefixes tested against 3 dominators only
     _, cost = brute_force_schedule(rec, state, 4)
-    assert res.cost == pytest.approx(cost, rel=1e-9) and bound_only.cost == pytest.approx(cost, rel=1e-9)
+    for r in (res, bound_only, few):
+        assert r.cost == pytest.approx(cost, rel=1e-9)
     assert res.leaves <= 784 < bound_only.leaves <= 1904 < 4096
     ukf = TruthRecursion.from_env(env, linearisation="ukf")
     assert not ukf.dominance_exact
@@ -222,6 +226,8 @@ def test_bad_inputs_raise():
         optimal_schedule(rec, None, 0)
     with pytest.raises(ValueError, match="rollouts=-1"):
         optimal_schedule(rec, None, 2, rollouts=-1)
+    with pytest.raises(ValueError, match="max_dominators=0"):
+        optimal_schedule(rec, None, 2, max_dominators=0)
     with pytest.raises(ValueError, match="must be in \\[0, 2\\]"):
         schedule_cost(rec, [0, 3])
     with pytest.raises(ValueError, match="horizon=2000"):
