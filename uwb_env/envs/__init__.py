@@ -14,7 +14,11 @@ ENV_IDS = {
         "receiver_warmup": True,
     },
     "uwb_env/ThroughWall-v2": {"scenario": "through-wall", "action_kind": "waveform"},
-    "uwb_env/UrbanDistributed-v0": {"scenario": "urban-distributed", "action_kind": "per-tx"},
+    "uwb_env/UrbanDistributed-v0": {
+        "scenario": "urban-distributed",
+        "action_kind": "per-tx",
+        "action_encoding": "flat",
+    },
 }
 """Registered ids and their default keyword arguments (``gymnasium.make(id, **kwargs)`` overrides them).
 
@@ -23,8 +27,9 @@ range migration of fast vehicles, a trade-off that depends on each track's range
 (``uwb_env.scenarios.urban_intersection``).
 
 ``UrbanDistributed-v0`` is seed 003's intersection watched by two radar nodes whose transmitters each pick their own
-chirp of eight every scan (``MultiDiscrete([8, 8])``; ``action_encoding="flat"`` gives ``Discrete(64)`` with
-``action_masks()``; ``uwb_env.scenarios.urban_distributed``).
+chirp of eight every scan: ``Discrete(64)`` joint plans with ``action_masks()`` (the id's default, the space every
+agent and test of the package takes), ``action_encoding="multi"`` gives ``MultiDiscrete([8, 8])`` (per-transmitter
+masks, sb3-contrib's convention), decoding to the same plans (``uwb_env.scenarios.urban_distributed``).
 
 ``IndoorSubsetWarmup-v1`` is the scenario where one-step lookahead is short-sighted (receiver warm-up,
 ``uwb_env.envs.scheduling``).
