@@ -155,3 +155,45 @@ def test_pda_q2_costs_are_never_below_the_clutter_free_ones():
     assert np.all(pda > free * (1.0 + 1e-6))  # tracks exist, so the difference is real, not rounding
     with pytest.raises(ValueError, match="q2="):
         gym.make("uwb_env/UrbanWaveform-v3", lookahead_q2="kershaw")
+
+
+def _without_shared_prefixes(monkeypatch) -> None:
+    """Every plan its own expected update (``_PlanTable.pair_groups`` off), fresh plan tables."""
+    from uwb_env import lookahead
+
+    monkeypatch.setattr(lookahead._PlanTable, "pair_groups", lambda self, pairs: None)
+    monkeypatch.setattr(lookahead, "_PLAN_TABLES", {})
+
+
+@pytest.mark.parametrize("env_id", ["uwb_env/UrbanDistributed-v0", "uwb_env/IndoorJoint-v1"])
+def test_shared_prefixes_are_exact(env_id, monkeypatch):
+    """Plans that do the same at the first pairs share one update there: the costs are those of every plan's own."""
+    env = gym.make(env_id).unwrapped
+    env.reset(seed=3)
+    agent = Myopic()
+    while env.sim.k < 60:
+        env.step(agent.act(None, env))
+    assert env.sim.tracker.tracks.confirmed.any()
+    shared = (env.lookahead_costs(), env.sequence_costs(2, 3))
+    with monkeypatch.context() as m:
+        _without_shared_prefixes(m)
+        plain = (env.lookahead_costs(), env.sequence_costs(2, 3))
+    np.testing.assert_array_equal(shared[0], plain[0])
+    np.testing.assert_array_equal(shared[1], plain[1])
+
+
+def test_shared_prefix_groups_of_per_tx_plans():
+    """Per-tx plans (tx-se slowest): 8 groups over tx-se's two pairs, 64 over tx-nw's; none for waveform plans."""
+    from uwb_env.lookahead import _plan_table
+
+    env = gym.make("uwb_env/UrbanDistributed-v0").unwrapped
+    pairs = env.sim.sensor.pairs.tolist()
+    chain, final = _plan_table(env.plans).pair_groups(pairs)
+    sizes = [64 if rep is None else rep.size for rep, _ in chain]
+    assert sizes == [8, 8, 64, 64]
+    np.testing.assert_array_equal(chain[0][0], np.arange(0, 64, 8))  # representatives: tx-nw sends waveform 0
+    np.testing.assert_array_equal(chain[2][1], np.repeat(np.arange(8), 8))  # each joint plan's tx-se group
+    assert chain[1][1] is None and chain[3][1] is None and final is None  # identities: nothing gathered
+    assert chain[2][0] is None and chain[3][0] is None  # every plan its own group from tx-nw's first pair
+    urban = gym.make("uwb_env/UrbanWaveform-v3").unwrapped
+    assert _plan_table(urban.plans).pair_groups(urban.sim.sensor.pairs.tolist()) is None

@@ -177,10 +177,21 @@ def _waveform_mask(value: object, waveforms: list[str], transmitters: list[str])
     T, W = len(transmitters), len(waveforms)
     if not isinstance(value, dict):
         return np.repeat(_node_mask("unavailable_waveforms", value, waveforms, "waveform")[None], T, axis=0)
-    _node_mask("unavailable_waveforms", list(value), transmitters, "transmitter")  # the keys: known, each once
     dead = np.zeros((T, W), dtype=bool)
+    seen = np.zeros(T, dtype=bool)
     for key, item in value.items():
-        t = transmitters.index(key) if isinstance(key, str) else int(key)
+        if isinstance(key, str) and key in transmitters:
+            t = transmitters.index(key)
+        elif _is_int(key) and 0 <= key < T:  # type: ignore[operator]
+            t = int(key)  # type: ignore[call-overload]
+        else:
+            raise ValueError(
+                f"unavailable_waveforms={value!r}: key {key!r} is not a transmitter; must be an index in [0, {T - 1}] "
+                f"or a name {transmitters}"
+            )
+        if seen[t]:
+            raise ValueError(f"unavailable_waveforms={value!r}: transmitter {transmitters[t]!r} listed twice")
+        seen[t] = True
         dead[t] = _node_mask(f"unavailable_waveforms[{key!r}]", item, waveforms, "waveform")
     return dead
 
