@@ -26,6 +26,12 @@ expected false measurements in each plan's gate, lambda_G = rho c_m gamma^(m/2) 
 clutter map at the track's predicted measurement h(x) (``ParametricSensor.clutter_intensity_at``, floored like the
 tracker's). On urban-intersection it changes the myopic scheduler's results by less than their 95 % interval.
 
+Shared prefixes: pair p's update of plan a depends only on P_a before it and on what the plan does at the pair
+(whether its receiver listens, the waveform its transmitter sends), so plans that do the same at pairs 0..p share
+P_a after them and are updated once (``_PlanTable.pair_groups``; exact, the per-(plan, track) updates being
+independent). Per-transmitter plans (``action_kind="per-tx"``, W^T joint plans) update the first transmitter's pairs
+once per waveform (W groups), the last transmitter's once per joint plan; the waveform plans share nothing.
+
 The whole computation is batched over plans x tracks, draws nothing and changes no state. The lookahead reads the
 tracker only through its seam (``uwb_env.tracking.protocol``): the scored tracks' predicted Gaussians, the prediction
 between scans and each pair's expected update (``uwb_env.tracking.expectation``, one numba call; its numpy twin is in
