@@ -63,6 +63,10 @@ def test_splits_are_respected_and_a_heldout_variant_is_never_trained_on():
     assert drawn == held  # all 7 held-out cells in 60 draws (P(one missed) < 7 (6/7)^60 = 7e-4)
     _, info = SceneFamilyEnv(split="train").reset(seed=0)
     assert info["variant_heldout"] == 0
+    mirrored = gym.make(ID, split="heldout-mirrored")
+    for seed in range(5):
+        _, info = mirrored.reset(seed=seed)
+        assert info["variant_orientation"] == 4 and info["variant_heldout"] == 1
 
 
 @pytest.mark.parametrize("seed", [4, 21])

@@ -265,6 +265,13 @@ def test_splits_are_disjoint_cover_the_family_and_are_respected():
         assert FAMILY.draw(seed, "train")[0].cell in train
         assert FAMILY.draw(seed, "heldout")[0].cell in held
     assert FAMILY.split_of(SEED_SCENE) == "train"
+    # the three kinds are splits of their own and partition the held-out cells
+    kinds = {k: set(FAMILY.cells(f"heldout-{k}")) for k in ("rotated", "mirrored", "turn")}
+    assert kinds == {"rotated": {(1, 0), (1, 1), (1, 2)}, "mirrored": {(4, 0), (4, 1), (4, 2)}, "turn": {(0, 2)}}
+    assert set().union(*kinds.values()) == held
+    assert {FAMILY.draw(seed, "heldout-turn")[0].cell for seed in range(20)} == {(0, 2)}
+    with pytest.raises(ValueError, match=r"'turn' .* subset of heldout"):
+        dataclasses.replace(FAMILY, heldout_kinds=(("turn", ((0, 0),)),))
     with pytest.raises(ValueError, match="split='test'"):
         FAMILY.cells("test")
 

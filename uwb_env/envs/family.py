@@ -41,7 +41,7 @@ import numpy as np
 from uwb_env.config import ScenarioConfig
 from uwb_env.envs.scheduling import UWBSchedulingEnv, check_choice, check_int
 from uwb_env.rng import STREAM_NAMES
-from uwb_env.scenarios.families import SPLITS, SceneFamily, SceneVariant, family_names, get_family
+from uwb_env.scenarios.families import SceneFamily, SceneVariant, family_names, get_family
 from uwb_env.sim import Simulator
 from uwb_env.typing import BoolArray, FloatArray
 
@@ -64,7 +64,9 @@ class SceneFamilyEnv(gym.Env):
 
     Args:
         family: a registered family name (``uwb_env.scenarios.families.family_names()``) or a ``SceneFamily``.
-        split: ``"train"`` (default), ``"heldout"`` or ``"all"``: the cells the variants are drawn from.
+        split: ``"train"`` (default), ``"heldout"``, ``"all"`` or ``"heldout-<kind>"`` (``family.splits``; the urban
+            families: ``heldout-rotated``, ``heldout-mirrored``, ``heldout-turn``): the cells the variants are drawn
+            from.
         cache_size: inner envs kept (LRU), >= 1.
         **env_kwargs: every ``UWBSchedulingEnv`` keyword but ``scenario``, and dotted config overrides.
     """
@@ -84,7 +86,7 @@ class SceneFamilyEnv(gym.Env):
             family = get_family(family)
         elif not isinstance(family, SceneFamily):
             raise TypeError(f"family={family!r}: must be a family name (one of {family_names()}) or a SceneFamily")
-        check_choice("split", split, SPLITS)
+        check_choice("split", split, family.splits)
         check_int("cache_size", cache_size, 1, None)
         if "scenario" in env_kwargs:
             raise TypeError(

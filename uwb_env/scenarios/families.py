@@ -58,6 +58,9 @@ out 7 of the 24 cells so that the issue's held-out check has each kind of unseen
   vehicles turn right in a mirrored city), on which ``rl:runs/urban-mppo-p1`` fell to round-robin level;
 * *the other turn*: the seed's own orientation with the right turn.
 
+Each kind is also a split of its own (``heldout_kinds``: ``heldout-rotated``, ``heldout-mirrored``,
+``heldout-turn``), so an evaluation can report the three separately.
+
 ``SceneFamily.draw(seed, split)`` is deterministic: one ``numpy.random.Generator`` seeded by ``seed`` draws the cell
 (uniform over the split's cells), the count (uniform in 1 .. ``max_targets``) and the births, in that order.
 """
@@ -378,6 +381,7 @@ class SceneFamily:
         name: the family's name; scenario: the registered base scenario; centre_m: the D4 centre [m];
         paths: ``((name, path), ...)`` the paths through the scene, in the base frame;
         heldout: the (orientation, path index) cells training never draws;
+        heldout_kinds: ``((kind, cells), ...)`` named subsets of ``heldout``, each also a split ``heldout-<kind>``;
         max_targets: vehicles per variant at most (at least 1); birth_spacing_s: the births' spacing [s];
         birth_jitter_scans: each birth is delayed by a uniform whole number of scans in [0, this];
         target_template: index of the base target whose RCS model every vehicle takes;
@@ -389,6 +393,7 @@ class SceneFamily:
     centre_m: Vec2
     paths: tuple[tuple[str, SegmentedTrajectoryConfig], ...]
     heldout: tuple[tuple[int, int], ...]
+    heldout_kinds: tuple[tuple[str, tuple[tuple[int, int], ...]], ...] = ()
     max_targets: int = 3
     birth_spacing_s: float = 10.0
     birth_jitter_scans: int = 8
@@ -406,6 +411,11 @@ class SceneFamily:
                 f"SceneFamily.heldout = {self.heldout}: must be distinct (orientation in 0..7, path in "
                 f"0..{len(self.paths) - 1}) cells, leaving at least one to train on"
             )
+        for kind, subset in self.heldout_kinds:
+            if not isinstance(kind, str) or not kind or not set(subset) <= set(self.heldout) or not subset:
+                raise ValueError(
+                    f"SceneFamily.heldout_kinds: {kind!r} = {subset}: must be a named, non-empty subset of heldout"
+                )
         if not isinstance(self.max_targets, int) or self.max_targets < 1:
             raise ValueError(f"SceneFamily.max_targets = {self.max_targets!r}: must be an integer >= 1")
         if not isinstance(self.birth_jitter_scans, int) or self.birth_jitter_scans < 0:
@@ -420,14 +430,22 @@ class SceneFamily:
             raise ValueError(f"SceneFamily.target_template = {self.target_template}: no such target in {self.scenario}")
 
     # -------------------------------------------------------------------------------------------------- splits
+    @property
+    def splits(self) -> tuple[str, ...]:
+        """``train``, ``heldout``, ``all`` and one ``heldout-<kind>`` per named held-out kind."""
+        return SPLITS + tuple(f"heldout-{kind}" for kind, _ in self.heldout_kinds)
+
     def cells(self, split: str = "all") -> tuple[tuple[int, int], ...]:
-        """The (orientation, path) cells of ``split`` (``train``, ``heldout`` or ``all``), sorted."""
-        if split not in SPLITS:
-            raise ValueError(f"split={split!r}: must be one of {SPLITS}")
+        """The (orientation, path) cells of ``split`` (one of :attr:`splits`), sorted."""
+        if split not in self.splits:
+            raise ValueError(f"split={split!r}: must be one of {self.splits}")
         every = [(g, p) for g in range(8) for p in range(len(self.paths))]
         held = set(self.heldout)
         if split == "all":
             return tuple(every)
+        if split.startswith("heldout-"):
+            held = set(dict(self.heldout_kinds)[split.removeprefix("heldout-")])
+            return tuple(c for c in every if c in held)
         return tuple(c for c in every if (c in held) == (split == "heldout"))
 
     def split_of(self, variant: SceneVariant) -> str:
@@ -544,11 +562,12 @@ INTERSECTION_CENTRE: Vec2 = (2067.5, 1512.0)
 north-south street between its west kerb (x = 2030 north, 2040 south: 2035) and its east kerb (x = 2100)."""
 
 URBAN_PATHS = (("left", seed003_path()), ("straight", seed003_straight_path()), ("right", seed003_right_path()))
-URBAN_HELDOUT: tuple[tuple[int, int], ...] = (
-    (1, 0), (1, 1), (1, 2),  # rotated: rot90, every path
-    (4, 0), (4, 1), (4, 2),  # mirrored: mirror-vertical, every path (its left turn: the issue's mirror image)
-    (0, 2),  # the other turn: the seed's orientation, turning right
-)  # fmt: skip
+URBAN_HELDOUT_KINDS: tuple[tuple[str, tuple[tuple[int, int], ...]], ...] = (
+    ("rotated", ((1, 0), (1, 1), (1, 2))),  # rot90, every path
+    ("mirrored", ((4, 0), (4, 1), (4, 2))),  # mirror-vertical, every path (its left turn: the issue's mirror image)
+    ("turn", ((0, 2),)),  # the other turn: the seed's orientation, turning right
+)
+URBAN_HELDOUT: tuple[tuple[int, int], ...] = tuple(c for _, cells in URBAN_HELDOUT_KINDS for c in cells)
 
 _FAMILIES: dict[str, Callable[[], SceneFamily]] = {}
 
@@ -581,14 +600,21 @@ def get_family(name: str) -> SceneFamily:
 @register_family("urban-intersection")
 def urban_intersection_family() -> SceneFamily:
     """Seed 003's intersection: D4 x {left, straight, right} x 1-3 vehicles 10 s apart (+0..2 s); 7 cells held out."""
-    return SceneFamily("urban-intersection", "urban-intersection", INTERSECTION_CENTRE, URBAN_PATHS, URBAN_HELDOUT)
+    return SceneFamily(
+        "urban-intersection", "urban-intersection", INTERSECTION_CENTRE, URBAN_PATHS, URBAN_HELDOUT, URBAN_HELDOUT_KINDS
+    )
 
 
 @register_family("urban-intersection-wideband")
 def urban_intersection_wideband_family() -> SceneFamily:
     """The same family on the wideband library (``urban-intersection-wideband``)."""
     return SceneFamily(
-        "urban-intersection-wideband", "urban-intersection-wideband", INTERSECTION_CENTRE, URBAN_PATHS, URBAN_HELDOUT
+        "urban-intersection-wideband",
+        "urban-intersection-wideband",
+        INTERSECTION_CENTRE,
+        URBAN_PATHS,
+        URBAN_HELDOUT,
+        URBAN_HELDOUT_KINDS,
     )
 
 
