@@ -148,6 +148,28 @@ class Myopic:
         return best_action(env.unwrapped.lookahead_costs(), env)
 
 
+class CommonWaveformMyopic:
+    """Seed 003 eq. 7 over the plans whose transmitters all send one waveform (the seed's single-waveform network).
+
+    The baseline of distributed transmitters (``action_kind="per-tx"``): the myopic scheduler when the network must
+    send a common waveform, so the value of choosing per transmitter is the gap to ``Myopic`` over every joint plan.
+    On the other action kinds every plan sends one waveform and it is ``Myopic``.
+    """
+
+    name = "myopic-common"
+
+    def reset(self, seed: int | None = None) -> None:
+        """Nothing to reset."""
+
+    def act(self, obs: Any, env: gym.Env) -> Any:
+        """Argmin of ``lookahead_costs()`` over the valid plans with one waveform for every transmitter."""
+        e = env.unwrapped
+        common = np.array([bool((p.waveform == p.waveform[0]).all()) for p in e.plans])
+        if not (common & plan_masks(env)).any():
+            raise ValueError("myopic-common: no valid plan sends one waveform from every transmitter (action_masks())")
+        return best_action(np.where(common, e.lookahead_costs(), np.inf), env)
+
+
 class DetectionConstrainedMyopic:
     """Seed 003's eq. 7 under a detection constraint, and the finest-ranging plan for search.
 
@@ -212,7 +234,13 @@ class MultiStepLookahead:
         return best_action(self.costs(env), env)
 
 
-_NAMED = {"myopic": Myopic, "myopic-pd": DetectionConstrainedMyopic, "round-robin": RoundRobin, "random": Random}
+_NAMED = {
+    "myopic": Myopic,
+    "myopic-pd": DetectionConstrainedMyopic,
+    "myopic-common": CommonWaveformMyopic,
+    "round-robin": RoundRobin,
+    "random": Random,
+}
 
 
 def scheduler_names() -> list[str]:
@@ -239,7 +267,8 @@ def check_scheduler_name(name: str) -> None:
 def make_scheduler(name: str) -> Scheduler:
     """A scheduler from its name.
 
-    ``myopic``, ``myopic-pd`` / ``myopic-pdP`` (minimum Pd P), ``round-robin``, ``random``, ``fixed-K`` (action K),
+    ``myopic``, ``myopic-pd`` / ``myopic-pdP`` (minimum Pd P), ``myopic-common`` (one waveform for every
+    transmitter), ``round-robin``, ``random``, ``fixed-K`` (action K),
     ``lookahead-D``, ``rl:PATH`` (a run directory of ``scripts/train.py`` or its model zip; needs the ``rl`` extra),
     ``rllib:PATH`` (a run directory of ``uwb-env-train --engine rllib``; needs the ``ray`` extra).
     """

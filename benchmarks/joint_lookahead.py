@@ -1,6 +1,6 @@
 """Joint-plan lookahead on UrbanDistributed-v0: decisions/s of myopic and lookahead-3, and myopic env steps/s.
 
-Run: python benchmarks/joint_lookahead.py [--episodes N] [--repeats K] [--depth D] [--beam B]
+Run: python benchmarks/joint_lookahead.py [--episodes N] [--repeats K] [--depth D] [--beam B] [--compare S]
 
 Decisions: the tracker states of ``--episodes`` seeded myopic episodes (every 5th scan from scan 20, where tracks
 exist), each asked for the myopic costs (``lookahead_costs``: one expected update per plan, 64 joint plans of 8
@@ -14,6 +14,11 @@ run (their ratio), ``--episodes`` seeded episodes after one untimed warm-up, ``-
 the distributed env's step spent in the tracker's range-only initiation (``initiation.initiate_compiled``; its
 3-tuples across the two nodes, ``uwb_env.tracking.initiation``). Reported: median and best over the repeats (a
 shared 2-core box varies by +-10 % and sometimes 2x: the best is the least disturbed).
+
+``--compare S``: what choosing per transmitter is worth to the myopic scheduler: ``myopic`` (argmin over the 64
+joint plans) against ``myopic-common`` (over the 8 plans where both transmitters send one waveform), paired on seeds
+0..S-1: the return, the mean trace on targets, their paired differences with standard errors, and how often
+myopic's plan sends different waveforms.
 """
 
 from __future__ import annotations
@@ -103,6 +108,40 @@ def env_steps_per_s(env_id: str, episodes: int, repeats: int) -> tuple[list[floa
     return rates, share
 
 
+def compare(seeds: int) -> None:
+    """Paired myopic vs myopic-common episodes on UrbanDistributed-v0 (module docstring)."""
+    env = gym.make("uwb_env/UrbanDistributed-v0")
+    out: dict[str, list[tuple[float, float]]] = {"myopic": [], "myopic-common": []}
+    mixed = total = 0
+    for name in out:
+        agent = make_scheduler(name)
+        for seed in range(seeds):
+            obs, _ = env.reset(seed=seed)
+            agent.reset(seed)
+            ret, traces = 0.0, []
+            while not env.unwrapped.sim.done:
+                a = agent.act(obs, env)
+                if name == "myopic":
+                    w = env.unwrapped.plans[env.unwrapped.plan_index(a)].waveform
+                    mixed += int(w[0] != w[1])
+                    total += 1
+                obs, reward, _, _, info = env.step(a)
+                ret += reward
+                if info["target_covariance_trace"] > 0.0:
+                    traces.append(info["target_covariance_trace"])
+            out[name].append((ret, float(np.mean(traces)) if traces else 0.0))
+    joint, common = np.array(out["myopic"]), np.array(out["myopic-common"])
+    d = joint - common
+    se = d.std(axis=0, ddof=1) / np.sqrt(seeds)
+    print(f"myopic vs myopic-common, {seeds} paired seeds (UrbanDistributed-v0):")
+    for c, label in ((0, "return"), (1, "trace on targets [m^2]")):
+        print(
+            f"  {label:24s} {joint[:, c].mean():10.4f} vs {common[:, c].mean():10.4f}: "
+            f"diff {d[:, c].mean():+.4f} +- {se[c]:.4f}"
+        )
+    print(f"  myopic's plans with different waveforms per transmitter: {100 * mixed / total:.1f} % of scans")
+
+
 def _summary(rates: list[float]) -> str:
     return f"median {statistics.median(rates):7.0f} best {max(rates):7.0f} ({' '.join(f'{r:.0f}' for r in rates)})"
 
@@ -113,7 +152,10 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--depth", type=int, default=3)
     ap.add_argument("--beam", type=int, default=4)
+    ap.add_argument("--compare", type=int, default=0, help="paired seeds of myopic vs myopic-common (0: skip)")
     args = ap.parse_args()
+    if args.compare:
+        compare(args.compare)
     states = tracked_states(args.episodes)
     n_tracks = [len(e.sim.tracker.tracks) for e in states]
     print(

@@ -211,7 +211,23 @@ def test_myopic_and_lookahead_pick_the_argmin(tracked):
     assert finite.sum() >= 1 and np.all(seq[finite] >= costs[finite])
 
 
-@pytest.mark.parametrize("name", ["round-robin", "random", "fixed-9", "myopic", "myopic-pd", "lookahead-2"])
+def test_common_waveform_myopic_is_the_argmin_over_the_diagonal(tracked):
+    env = tracked
+    costs = env.lookahead_costs()
+    a = make_scheduler("myopic-common").act(None, env)
+    diagonal = np.arange(W) * (W + 1)  # plans (w, w)
+    assert a[0] == a[1] and env.plan_index(a) == diagonal[np.argmin(costs[diagonal])]
+    assert costs[env.plan_index(a)] >= costs.min()  # never below the joint optimum
+    urban = gym.make("uwb_env/UrbanWaveform-v3").unwrapped  # one transmitter: every plan is common, = myopic
+    urban.reset(seed=5)
+    for k in range(30):
+        urban.step(k % 6)
+    assert make_scheduler("myopic-common").act(None, urban) == Myopic().act(None, urban)
+
+
+@pytest.mark.parametrize(
+    "name", ["round-robin", "random", "fixed-9", "myopic", "myopic-pd", "myopic-common", "lookahead-2"]
+)
 def test_every_scheduler_plays_the_multidiscrete_space(name):
     env = gym.make(ID, unavailable_waveforms={"tx-nw": (6, 7)}, **MULTI)
     agent = make_scheduler(name)
