@@ -27,6 +27,8 @@ def _batched_ids() -> list[str]:
     """The registered ids the batched env runs (parametric fidelity, imm-lmipda tracker)."""
     out = []
     for env_id in sorted(ENV_IDS):
+        if gym.spec(env_id).vector_entry_point is None:  # scene families (SceneFamilyEnv): no batched env
+            continue
         cfg = gym.make(env_id).unwrapped.cfg
         if cfg.sensing.fidelity == "parametric" and cfg.tracker.kind == "imm-lmipda":
             out.append(env_id)
