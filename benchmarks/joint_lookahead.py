@@ -15,10 +15,11 @@ the distributed env's step spent in the tracker's range-only initiation (``initi
 3-tuples across the two nodes, ``uwb_env.tracking.initiation``). Reported: median and best over the repeats (a
 shared 2-core box varies by +-10 % and sometimes 2x: the best is the least disturbed).
 
-``--compare S``: what choosing per transmitter is worth to the myopic scheduler: ``myopic`` (argmin over the 64
-joint plans) against ``myopic-common`` (over the 8 plans where both transmitters send one waveform), paired on seeds
-0..S-1: the return, the mean trace on targets, their paired differences with standard errors, and how often
-myopic's plan sends different waveforms.
+``--compare S [--schemes ...]``: the schedulers paired on seeds 0..S-1, against the first: the return, the mean
+trace on targets, their paired differences with standard errors, and how often each sends different waveforms from
+the two transmitters. By default what choosing per transmitter is worth: ``myopic`` (argmin over the 64 joint
+plans) against ``myopic-common`` (over the 8 plans where both transmitters send one waveform), with ``lookahead-3``
+(beam 4) and ``round-robin``.
 """
 
 from __future__ import annotations
@@ -108,38 +109,41 @@ def env_steps_per_s(env_id: str, episodes: int, repeats: int) -> tuple[list[floa
     return rates, share
 
 
-def compare(seeds: int) -> None:
-    """Paired myopic vs myopic-common episodes on UrbanDistributed-v0 (module docstring)."""
+def compare(seeds: int, schemes: list[str]) -> None:
+    """Paired episodes of ``schemes`` on UrbanDistributed-v0, differences against the first (module docstring)."""
     env = gym.make("uwb_env/UrbanDistributed-v0")
-    out: dict[str, list[tuple[float, float]]] = {"myopic": [], "myopic-common": []}
-    mixed = total = 0
-    for name in out:
+    out: dict[str, np.ndarray] = {}
+    mixed = {}
+    for name in schemes:
         agent = make_scheduler(name)
+        rows, n_mixed, n_total = [], 0, 0
         for seed in range(seeds):
             obs, _ = env.reset(seed=seed)
             agent.reset(seed)
             ret, traces = 0.0, []
             while not env.unwrapped.sim.done:
                 a = agent.act(obs, env)
-                if name == "myopic":
-                    w = env.unwrapped.plans[env.unwrapped.plan_index(a)].waveform
-                    mixed += int(w[0] != w[1])
-                    total += 1
+                w = env.unwrapped.plans[env.unwrapped.plan_index(a)].waveform
+                n_mixed += int(w[0] != w[1])
+                n_total += 1
                 obs, reward, _, _, info = env.step(a)
                 ret += reward
                 if info["target_covariance_trace"] > 0.0:
                     traces.append(info["target_covariance_trace"])
-            out[name].append((ret, float(np.mean(traces)) if traces else 0.0))
-    joint, common = np.array(out["myopic"]), np.array(out["myopic-common"])
-    d = joint - common
-    se = d.std(axis=0, ddof=1) / np.sqrt(seeds)
-    print(f"myopic vs myopic-common, {seeds} paired seeds (UrbanDistributed-v0):")
-    for c, label in ((0, "return"), (1, "trace on targets [m^2]")):
+            rows.append((ret, float(np.mean(traces)) if traces else 0.0))
+        out[name], mixed[name] = np.array(rows), 100.0 * n_mixed / n_total
+    ref = schemes[0]
+    print(f"{seeds} paired seeds on UrbanDistributed-v0, differences against {ref} (mean +- standard error):")
+    print(
+        f"  {'scheme':14s} {'return':>10s} {'diff':>18s} {'trace on targets':>17s} {'diff':>20s} {'mixed plans':>11s}"
+    )
+    for name, v in out.items():
+        d = v - out[ref]
+        se = d.std(axis=0, ddof=1) / np.sqrt(seeds) if seeds > 1 else np.zeros(2)
         print(
-            f"  {label:24s} {joint[:, c].mean():10.4f} vs {common[:, c].mean():10.4f}: "
-            f"diff {d[:, c].mean():+.4f} +- {se[c]:.4f}"
+            f"  {name:14s} {v[:, 0].mean():10.1f} {d[:, 0].mean():+9.1f} +- {se[0]:6.1f} {v[:, 1].mean():13.4f} m^2 "
+            f"{d[:, 1].mean():+9.4f} +- {se[1]:.4f} {mixed[name]:10.1f} %"
         )
-    print(f"  myopic's plans with different waveforms per transmitter: {100 * mixed / total:.1f} % of scans")
 
 
 def _summary(rates: list[float]) -> str:
@@ -152,10 +156,11 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--depth", type=int, default=3)
     ap.add_argument("--beam", type=int, default=4)
-    ap.add_argument("--compare", type=int, default=0, help="paired seeds of myopic vs myopic-common (0: skip)")
+    ap.add_argument("--compare", type=int, default=0, help="paired seeds of the --schemes (0: skip)")
+    ap.add_argument("--schemes", nargs="+", default=["myopic", "myopic-common", "lookahead-3", "round-robin"])
     args = ap.parse_args()
     if args.compare:
-        compare(args.compare)
+        compare(args.compare, args.schemes)
     states = tracked_states(args.episodes)
     n_tracks = [len(e.sim.tracker.tracks) for e in states]
     print(
