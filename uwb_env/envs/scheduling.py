@@ -14,7 +14,9 @@ Action encoding (``action_encoding``): ``"flat"`` is ``Discrete(len(plans))``, t
 encoding of the first three kinds); ``"multi"`` (per-tx's default) is ``MultiDiscrete([W] * T)``, the action is the
 waveform of each transmitter, ``(T,)`` integers, and decodes to the plan of the same waveforms (so flat action a and
 multi action ``numpy.unravel_index(a, (W,) * T)`` play the same plan). ``plan_index(action)`` decodes either,
-``action_of_plan(a)`` encodes; ``lookahead_costs()`` and the other per-plan arrays are indexed by plan in both.
+``action_of_plan(a)`` encodes; ``lookahead_costs()`` and the other per-plan arrays are indexed by plan in both. The
+registered ``UrbanDistributed-v0`` takes ``"flat"`` (``Discrete(64)`` with ``action_masks()``, the space the package's
+RL engines and generic tests take); ``gymnasium.make(id, action_encoding="multi")`` gives ``MultiDiscrete([8, 8])``.
 
 Reward: minus the mean over confirmed tracks of trace(P) of the position block [m^2], minus
 ``missed_target_penalty_m2`` for every alive true target that no confirmed track covers within ``cover_gate_m``
