@@ -5,7 +5,8 @@ Run: python benchmarks/joint_lookahead.py [--episodes N] [--repeats K] [--depth 
 Decisions: the tracker states of ``--episodes`` seeded myopic episodes (every 5th scan from scan 20, where tracks
 exist), each asked for the myopic costs (``lookahead_costs``: one expected update per plan, 64 joint plans of 8
 chirps x 2 transmitters) and the depth-D beam-B sequence costs (``sequence_costs``: 64 + (D - 1) B 64 plan
-evaluations), CPU time per decision; both with the shared-prefix evaluation (``lookahead._PlanTable.pair_groups``:
+evaluations; then beams 16 and 64 and depth 2 exhaustive, once), CPU time per decision; both with the shared-prefix
+evaluation (``lookahead._PlanTable.pair_groups``:
 the first transmitter's pairs updated once per waveform, 8 groups, not once per joint plan) and without it (every
 plan's own update), interleaved, with their costs compared to the bit.
 
@@ -194,6 +195,10 @@ def main() -> None:
         print(f"  {label:16s} myopic decisions/s      {_summary(r['myopic'])}")
         print(f"  {label:16s} lookahead-{args.depth} (beam {args.beam}) /s {_summary(r['lookahead'])}")
     print(f"  costs identical with and without shared prefixes: {same}")
+    for beam in (16, 64, None):  # wider beams (None: every sequence; depth 2 only, 64^2 sequences)
+        depth = args.depth if beam is not None else 2
+        rates, _ = decisions_per_s(states, lambda e, d=depth, b=beam: e.sequence_costs(d, b), 1)
+        print(f"  lookahead-{depth} beam {beam if beam else 'none (exhaustive)'}: {rates[0]:.0f} decisions/s")
     dist, share = env_steps_per_s("uwb_env/UrbanDistributed-v0", args.episodes, args.repeats)
     base, base_share = env_steps_per_s("uwb_env/UrbanWaveform-v3", args.episodes, args.repeats)
     print(f"myopic env steps/s UrbanDistributed-v0 {_summary(dist)}; range-only initiation {100 * share:.0f} %")
