@@ -6,9 +6,8 @@ Decisions: the tracker states of ``--episodes`` seeded myopic episodes (every 5t
 exist), each asked for the myopic costs (``lookahead_costs``: one expected update per plan, 64 joint plans of 8
 chirps x 2 transmitters) and the depth-D beam-B sequence costs (``sequence_costs``: 64 + (D - 1) B 64 plan
 evaluations; then beams 16 and 64 and depth 2 exhaustive, once), CPU time per decision; both with the shared-prefix
-evaluation (``lookahead._PlanTable.pair_groups``:
-the first transmitter's pairs updated once per waveform, 8 groups, not once per joint plan) and without it (every
-plan's own update), interleaved, with their costs compared to the bit.
+evaluation (``lookahead._PlanTable.pair_groups``: the first transmitter's pairs updated once per waveform, 8 groups,
+not once per joint plan) and without it (every plan's own update), interleaved, with their costs compared to the bit.
 
 Env: myopic steps/s (``env.step`` plus the myopic decision) on UrbanDistributed-v0 and UrbanWaveform-v3 in the same
 run (their ratio), ``--episodes`` seeded episodes after one untimed warm-up, ``--repeats`` times; and the share of
