@@ -13,11 +13,14 @@ import itertools
 import gymnasium as gym
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import uwb_env  # noqa: F401  (registers the ids)
 from uwb_env import scenarios
 from uwb_env.agents import MultiStepLookahead, Myopic, make_scheduler
-from uwb_env.envs.scheduling import UWBSchedulingEnv
+from uwb_env.envs.outputs import observations
+from uwb_env.envs.scheduling import UWBSchedulingEnv, enumerate_plans
 from uwb_env.envs.vector import UWBVectorEnv
 from uwb_env.lookahead import position_trace, scored_prediction
 from uwb_env.scenarios.urban_distributed import NW_POWER_DBM, median_pulse_snr_db
@@ -331,3 +334,23 @@ def test_maskable_ppo_takes_the_multidiscrete_masks():
         action, _ = model.predict(obs, action_masks=get_action_masks(venv), deterministic=False)
         assert action.shape == (1, T) and action[0, 1] not in (6, 7)
         obs, *_ = venv.step(action)
+
+
+@settings(max_examples=60, deadline=None)
+@given(n_waveforms=st.integers(1, 6), n_tx=st.integers(1, 4), n_rx=st.integers(1, 3), data=st.data())
+def test_per_tx_plans_are_the_product_in_ravel_order(n_waveforms, n_tx, n_rx, data):
+    """enumerate_plans("per-tx"): W^T plans, plan a sends unravel_index(a, (W,) * T), every receiver listens; the
+    previous action's one-hot per transmitter marks exactly those digits."""
+    plans = enumerate_plans("per-tx", n_waveforms, n_tx, n_rx, 1, 0)
+    dims = (n_waveforms,) * n_tx
+    assert len(plans) == n_waveforms**n_tx
+    a = data.draw(st.integers(0, len(plans) - 1))
+    np.testing.assert_array_equal(plans[a].waveform, np.unravel_index(a, dims))
+    assert plans[a].active_rx.all() and plans[a].active_rx.shape == (n_rx,)
+    assert len({tuple(p.waveform.tolist()) for p in plans}) == len(plans)  # every assignment once
+    feats = np.zeros((2, 1, 3))
+    obs = observations(feats, np.array([a, -1]), len(plans), {}, "box", 10.0, np.zeros(2, np.int64), dims)
+    prev = obs[:, 3:]
+    assert prev.shape == (2, n_waveforms * n_tx)
+    np.testing.assert_array_equal(np.flatnonzero(prev[0]), np.arange(n_tx) * n_waveforms + plans[a].waveform)
+    assert not prev[1].any()  # no previous action (reset)
