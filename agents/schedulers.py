@@ -21,6 +21,7 @@ from typing import Any, Protocol
 import gymnasium as gym
 import numpy as np
 
+from uwb_env.ceiling import Ceiling
 from uwb_env.lookahead import check_search
 
 
@@ -245,7 +246,7 @@ _NAMED = {
 
 def scheduler_names() -> list[str]:
     """The names ``make_scheduler`` accepts."""
-    return [*_NAMED, "myopic-pdP", "fixed-K", "lookahead-D", "rl:PATH", "rllib:PATH"]
+    return [*_NAMED, "myopic-pdP", "fixed-K", "lookahead-D", "ceiling-H", "rl:PATH", "rllib:PATH"]
 
 
 def check_scheduler_name(name: str) -> None:
@@ -269,7 +270,9 @@ def make_scheduler(name: str) -> Scheduler:
 
     ``myopic``, ``myopic-pd`` / ``myopic-pdP`` (minimum Pd P), ``myopic-common`` (one waveform for every
     transmitter), ``round-robin``, ``random``, ``fixed-K`` (action K),
-    ``lookahead-D``, ``rl:PATH`` (a run directory of ``scripts/train.py`` or its model zip; needs the ``rl`` extra),
+    ``lookahead-D``, ``ceiling-H`` (clairvoyant: the optimal H-scan schedule on the truth's expected covariance
+    recursion, receding horizon, ``uwb_env.ceiling.Ceiling``; a reference, not a causal scheduler),
+    ``rl:PATH`` (a run directory of ``scripts/train.py`` or its model zip; needs the ``rl`` extra),
     ``rllib:PATH`` (a run directory of ``uwb-env-train --engine rllib``; needs the ``ray`` extra).
     """
     if name.startswith("rllib:"):
@@ -288,4 +291,6 @@ def make_scheduler(name: str) -> Scheduler:
         return Fixed(int(m.group(1)))
     if m := re.fullmatch(r"lookahead-(\d+)", name):
         return MultiStepLookahead(int(m.group(1)))
+    if m := re.fullmatch(r"ceiling-(\d+)", name):
+        return Ceiling(int(m.group(1)))
     raise ValueError(f"scheduler={name!r}: must be one of {scheduler_names()}")

@@ -675,8 +675,13 @@ class Ceiling:
         self._played: list[int] = []
         self.last_search: SearchResult | None = None
 
-    def act(self, obs: Any, env: Any) -> int:
-        """The first action of the optimal schedule of the next ``horizon`` scans (class docstring)."""
+    def act(self, obs: Any, env: Any) -> Any:
+        """The env's action for the first plan of the optimal schedule of the next ``horizon`` scans.
+
+        The search runs over plan indices (``env.plans``); the returned action is the env's for that plan
+        (``action_of_plan``: the index itself for a ``Discrete`` space, per-transmitter waveforms for
+        ``MultiDiscrete``).
+        """
         e = env.unwrapped
         k = int(e.sim.k)
         if self._recursion is None or e.sim.truth is not self._truth or k < len(self._played):
@@ -697,4 +702,4 @@ class Ceiling:
         self.last_search = result
         self._state, _ = advance(self._recursion, self._state, np.array([a]))
         self._played.append(a)
-        return a
+        return e.action_of_plan(a)
