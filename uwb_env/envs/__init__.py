@@ -18,6 +18,7 @@ ENV_IDS = {
         "scenario": "urban-distributed",
         "action_kind": "per-tx",
         "action_encoding": "flat",
+        "track_frame": "relative",
     },
 }
 """Registered ids and their default keyword arguments (``gymnasium.make(id, **kwargs)`` overrides them).
@@ -29,7 +30,8 @@ range migration of fast vehicles, a trade-off that depends on each track's range
 ``UrbanDistributed-v0`` is seed 003's intersection watched by two radar nodes whose transmitters each pick their own
 chirp of eight every scan: ``Discrete(64)`` joint plans with ``action_masks()`` (the id's default, the space every
 agent and test of the package takes), ``action_encoding="multi"`` gives ``MultiDiscrete([8, 8])`` (per-transmitter
-masks, sb3-contrib's convention), decoding to the same plans (``uwb_env.scenarios.urban_distributed``).
+masks, sb3-contrib's convention), decoding to the same plans (``uwb_env.scenarios.urban_distributed``). Its track
+slots are relative to the nodes (``track_frame="relative"``, ``uwb_env.envs.relative``).
 
 ``IndoorSubsetWarmup-v1`` is the scenario where one-step lookahead is short-sighted (receiver warm-up,
 ``uwb_env.envs.scheduling``).
@@ -97,18 +99,27 @@ Version history:
 
 # ------------------------------------------------------------------ scene families (issue 20, item 3)
 FAMILY_ENV_IDS = {
-    "uwb_env/UrbanFamily-v0": {"family": "urban-intersection", "split": "train", "action_kind": "waveform"},
+    "uwb_env/UrbanFamily-v0": {
+        "family": "urban-intersection",
+        "split": "train",
+        "action_kind": "waveform",
+        "track_frame": "relative",
+    },
     "uwb_env/UrbanWidebandFamily-v0": {
         "family": "urban-intersection-wideband",
         "split": "train",
         "action_kind": "waveform",
+        "track_frame": "relative",
     },
 }
 """Scene-family ids (``uwb_env.envs.family.SceneFamilyEnv``): every episode a variant of seed 003's intersection
 (D4 orientation, left / straight / right path, 1-3 vehicles, jittered births; ``uwb_env.scenarios.families``) drawn by
 the reset seed from ``split`` (``train`` by default; ``gymnasium.make(id, split="heldout")`` for the held-out cells,
 ``"all"`` for every cell). They are in :data:`ENV_IDS` (so training and campaigns take them) with their own entry
-point and no batched ``vector_entry_point`` (Gymnasium's sync / async vector envs and SB3's work)."""
+point and no batched ``vector_entry_point`` (Gymnasium's sync / async vector envs and SB3's work). Their track slots
+are relative to the nodes (``track_frame="relative"``, ``uwb_env.envs.relative``: the same numbers for a scene and its
+rotated or mirrored copy), so a policy trained on some variants reads the others in the same terms; to play a
+family-trained policy on a plain id, give that id ``track_frame="relative"`` too."""
 ENV_IDS.update(FAMILY_ENV_IDS)
 # ------------------------------------------------------------------ end of scene families
 

@@ -35,7 +35,11 @@ target moves. The multi-step lookahead (``sequence_costs``) sees the delayed pay
 Observation (flat ``Box``, default): ``n_slots`` track slots, confirmed tracks first then by existence, each
     [present, existence, confirmed, (x - cx) / hx, (y - cy) / hy, vx / v_max, vy / v_max,
      log10(var_x) / 4, log10(var_y) / 4, corr_xy, mu_1 .. mu_r]
-(cx, cy the area's centre, hx, hy its half-sizes), then the previous action one-hot (with ``action_kind="per-tx"``
+(cx, cy the area's centre, hx, hy its half-sizes; ``track_frame="absolute"``, the default) or, with
+``track_frame="relative"``, each track's range, range-rate, bearing and covariance in each node's radial frame, the
+bistatic pairs' half range, rate and variance along the range gradient, and the model probabilities with CT-left /
+CT-right as their sum and |difference| (``uwb_env.envs.relative``, its layout table: the same numbers for the scene
+rotated, mirrored or translated), then the previous action one-hot (with ``action_kind="per-tx"``
 one-hot per transmitter, T x W entries, rather than W^T), then optionally
 (log10(lookahead cost + 1e-9 m^2) + 9) / 11 per action (0 at no cost, 0.27 at 1e-6 m^2, 0.82 at 1 m^2:
 the costs span sub-millimetre indoor covariances to metres outdoors; with receiver warm-up also the same costs as if
@@ -90,6 +94,7 @@ from uwb_env import scenarios
 from uwb_env.config import TRACKER_KINDS, ScenarioConfig, apply_overrides
 from uwb_env.envs.features import track_features
 from uwb_env.envs.outputs import observations, one_env, rewards_and_infos, scan_summaries
+from uwb_env.envs.relative import relative_feature_count, relative_track_features, scene_arguments
 from uwb_env.lookahead import check_q2, detection_probabilities, lookahead_costs, search_information, sequence_costs
 from uwb_env.sensing.protocol import Sensor
 from uwb_env.sensing.records import ScanPlan
@@ -102,6 +107,7 @@ ACTION_KINDS = ("waveform", "subset", "joint", "per-tx")
 ACTION_ENCODINGS = ("flat", "multi")
 LOOKAHEAD_FLOOR_M2 = 1e-9  # floor of the log-scaled lookahead costs in the observation
 FIDELITIES = ("parametric", "signal")
+TRACK_FRAMES = ("absolute", "relative")
 OBS_BOUND = 10.0
 """Observation bounds: every feature is O(1) on the scenario (the tracker deletes a track beyond 50 m std, one
 area-size outside the surveillance area or faster than 10 ``max_speed_mps``: ``uwb_env.tracking.tracker``); a value
@@ -241,6 +247,9 @@ class UWBSchedulingEnv(gym.Env):
             (seed 002's particle filter) (``uwb_env.tracking.registry``); None keeps the scenario's ``tracker.kind``.
             Same as the override ``**{"tracker.kind": ...}``.
         n_slots: track slots in the observation; observation: ``"box"`` or ``"dict"``;
+        track_frame: ``"absolute"`` (the slots in the scene's frame, ``uwb_env.envs.features``) or ``"relative"`` (the
+            slots relative to the nodes, invariant under rotating, mirroring and translating the scene:
+            ``uwb_env.envs.relative``, its layout table);
         include_lookahead: append the lookahead cost of every action to the observation.
         missed_target_penalty_m2, cover_gate_m, energy_cost_per_j: reward terms (module docstring).
         receiver_warmup: a receiver delivers only if it listened in the previous scan (module docstring); the
@@ -271,6 +280,7 @@ class UWBSchedulingEnv(gym.Env):
         tracker: str | None = None,
         n_slots: int = 8,
         observation: str = "box",
+        track_frame: str = "absolute",
         include_lookahead: bool = False,
         missed_target_penalty_m2: float = 100.0,
         cover_gate_m: float = 5.0,
@@ -305,6 +315,7 @@ class UWBSchedulingEnv(gym.Env):
         if tracker is not None:
             check_choice("tracker", tracker, TRACKER_KINDS)
         check_choice("observation", observation, ("box", "dict"))
+        check_choice("track_frame", track_frame, TRACK_FRAMES)
         if render_mode is not None:
             check_choice("render_mode", render_mode, tuple(self.metadata["render_modes"]))
         check_int("n_slots", n_slots, 1, MAX_SLOTS)
@@ -364,12 +375,20 @@ class UWBSchedulingEnv(gym.Env):
         )
         self.n_models = len(self.sim.tracker.model_names)
         self._n_targets = len(self.cfg.targets)  # the width of info["position_errors_m"]
-        self.slot_features = 10 + self.n_models
         lay = sensor.layout
         x0, x1, y0, y1 = lay.area
         self._centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2])
         self._half = np.array([(x1 - x0) / 2, (y1 - y0) / 2])
         self._v_max = self.cfg.tracker.max_speed_mps
+        self.track_frame = track_frame
+        self._relative_scene = None
+        self.slot_features = 10 + self.n_models
+        if track_frame == "relative":
+            self._relative_scene = scene_arguments(self.cfg, lay, sensor.pairs, tuple(self.sim.tracker.model_names))
+            single, turns = self._relative_scene[4], self._relative_scene[5]
+            self.slot_features = relative_feature_count(
+                sensor.n_tx, sensor.n_rx, sensor.pairs.shape[0], single.size, turns.shape[0]
+            )
         self.plan_energy_j = np.array(
             [
                 sum(
@@ -616,13 +635,22 @@ class UWBSchedulingEnv(gym.Env):
             "model_probabilities": np.zeros(self.n_models),
         }
 
+    def track_slots(
+        self, existence: FloatArray, confirmed: BoolArray, mu: FloatArray, x: FloatArray, P: FloatArray
+    ) -> FloatArray:
+        """``(n_slots, slot_features)`` the observation's track slots of N tracks in the env's ``track_frame``.
+
+        existence, confirmed ``(N,)``, mu ``(N, r)``, IMM-combined x ``(N, 6)``, P ``(N, 6, 6)``.
+        """
+        if self._relative_scene is None:
+            return track_features(existence, confirmed, mu, x, P, self._centre, self._half, self._v_max, self.n_slots)
+        return relative_track_features(existence, confirmed, mu, x, P, *self._relative_scene, self._v_max, self.n_slots)
+
     def _observation(self, lookahead: dict[str, FloatArray] | None = None) -> Any:
         """The observation (module docstring); ``lookahead``: its lookahead parts if already computed (scaled)."""
         tracks = self.sim.tracker.tracks
         x, P = tracks.combined()
-        feats = track_features(
-            tracks.existence, tracks.confirmed, tracks.mu, x, P, self._centre, self._half, self._v_max, self.n_slots
-        )
+        feats = self.track_slots(tracks.existence, tracks.confirmed, tracks.mu, x, P)
         extra = {} if lookahead is None else dict(lookahead)
         if self.include_lookahead and lookahead is None:
             extra["lookahead"] = _scaled_cost(self.lookahead_costs())

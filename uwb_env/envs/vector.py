@@ -341,7 +341,16 @@ class UWBVectorEnv(VectorEnv):
                 extra["lookahead_all_ready"] = _scaled_cost(self._lookahead(envs, all_ready=True))
         if first.receiver_warmup:
             extra["ready_receivers"] = np.array([self.envs[e]._ready_rx for e in envs.tolist()], dtype=float)
-        obs = observations(summ[-1], actions, len(self.plans), extra, first.obs_kind, OBS_BOUND, ks, first.action_dims)
+        feats = summ[-1]
+        if first.track_frame != "absolute":  # the summaries' slots are the absolute ones: each env's own frame
+            start = _offsets(sizes)
+            feats = np.stack(
+                [
+                    first.track_slots(*(a[start[i] : start[i + 1]] for a in (existence, confirmed, mu, xc, Pc)))
+                    for i in range(len(sizes))
+                ]
+            )
+        obs = observations(feats, actions, len(self.plans), extra, first.obs_kind, OBS_BOUND, ks, first.action_dims)
         return rewards, info, obs
 
     def _set_rows(self, rows: int | IntArray, obs: Any) -> None:
