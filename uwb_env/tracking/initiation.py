@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import functools
 import itertools
+import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -30,7 +31,7 @@ import numba as nb
 import numpy as np
 from scipy.stats import chi2
 
-from uwb_env.localization.compiled import ellipse_intersection, ellipse_intersection_fast, two_ellipse_intersections
+from uwb_env.localization.compiled import ellipse_intersection_fast, two_ellipse_intersections
 from uwb_env.tracking.compiled import initiate
 from uwb_env.typing import BoolArray, FloatArray, IntArray
 
@@ -330,6 +331,146 @@ def _inside(p, area):  # pragma: no cover - compiled
     return p[0] >= area[0] and p[0] <= area[1] and p[1] >= area[2] and p[1] <= area[3]
 
 
+_GATE_MARGIN = 1e-6  # relative slack of the tuple gate over the residual bound: far above the costs' rounding
+
+
+@_jit
+def _xy_inside(x, y, area):  # pragma: no cover - compiled
+    return x >= area[0] and x <= area[1] and y >= area[2] and y <= area[3]
+
+
+@_jit
+def _gate_constants(gtx, grx, area):  # pragma: no cover - compiled
+    """Per-group bounds on the bistatic range h_g(p) = |p - tx_g| + |p - rx_g| for the tuple gate.
+
+    Returns ``focal (G, G)``: |h_g(p) - h_f(p)| <= focal[g, f] at every p (triangle inequality, foci paired either
+    way: min(|tx_g - tx_f| + |rx_g - rx_f|, |tx_g - rx_f| + |rx_g - tx_f|)); ``near (G,)``: h_g >= |tx_g - rx_g|
+    everywhere; ``far (G,)``: h_g <= far[g] inside the area (h_g is convex: its maximum on the rectangle is at a
+    corner).
+    """
+    G = gtx.shape[0]
+    focal = np.empty((G, G))
+    near = np.empty(G)
+    far = np.empty(G)
+    for g in range(G):
+        near[g] = math.hypot(gtx[g, 0] - grx[g, 0], gtx[g, 1] - grx[g, 1])
+        far[g] = 0.0
+        for cx in (area[0], area[1]):
+            for cy in (area[2], area[3]):
+                h = math.hypot(cx - gtx[g, 0], cy - gtx[g, 1]) + math.hypot(cx - grx[g, 0], cy - grx[g, 1])
+                far[g] = max(far[g], h)
+        for f in range(G):
+            same = math.hypot(gtx[g, 0] - gtx[f, 0], gtx[g, 1] - gtx[f, 1]) + math.hypot(
+                grx[g, 0] - grx[f, 0], grx[g, 1] - grx[f, 1]
+            )
+            crossed = math.hypot(gtx[g, 0] - grx[f, 0], gtx[g, 1] - grx[f, 1]) + math.hypot(
+                grx[g, 0] - gtx[f, 0], grx[g, 1] - gtx[f, 1]
+            )
+            focal[g, f] = min(same, crossed)
+    return focal, near, far
+
+
+@_jit
+def _residual_lower_bound(r, v, members, focal, near, far):  # pragma: no cover - compiled
+    """A lower bound on min over the area of the tuple's cost sum_k (r_k - h_k(p))^2 / v_k (nu = 2 or 3).
+
+    One range alone: h_k in [near, far] over the area, so its term is >= dist(r_k, [near, far])^2 / v_k. Two ranges
+    k, l: |h_k - h_l| <= focal, so |res_k - res_l| >= m = |r_k - r_l| - focal, and min a^2 / v_k + b^2 / v_l
+    subject to |a - b| >= m > 0 is m^2 / (v_k + v_l). The cost is a sum of its terms, so any partition of the
+    tuple into a pair and a single (or three singles) bounds it; the largest is returned. A tuple whose Gauss-Newton
+    fit ``Tracker._initiate`` keeps (inside the area, cost <= the residual bound) has a bound below that residual
+    bound, so rejecting the others changes nothing (tests/unit/test_initiation_speed.py).
+    """
+    nu = r.shape[0]
+    single = np.empty(3)
+    for q in range(nu):
+        g = members[q]
+        d = near[g] - r[q] if r[q] < near[g] else (r[q] - far[g] if r[q] > far[g] else 0.0)
+        single[q] = d * d / v[q]
+    best = single[0] + single[1] + (single[2] if nu == 3 else 0.0)
+    for q in range(nu):
+        for s in range(q + 1, nu):
+            m = abs(r[q] - r[s]) - focal[members[q], members[s]]
+            if m > 0.0:
+                rest = single[3 - q - s] if nu == 3 else 0.0  # the third member's own term
+                best = max(best, m * m / (v[q] + v[s]) + rest)
+    return best
+
+
+@_jit
+def _normal_equations(ranges, w, tx, rx, px, py):  # pragma: no cover - compiled
+    """Gauss-Newton's sums at p: ``(A00, A01, A11, g0, g1, cost)``, A = J^T W J, g = J^T W res.
+
+    ``localization.compiled._gauss_newton``'s loop body, its operations in its order (the same bits).
+    """
+    a00 = a01 = a11 = g0 = g1 = cost = 0.0
+    for k in range(ranges.shape[0]):
+        dtx, dty = px - tx[k, 0], py - tx[k, 1]
+        drx, dry = px - rx[k, 0], py - rx[k, 1]
+        lt = max(math.sqrt(dtx * dtx + dty * dty), 1e-9)
+        lr = max(math.sqrt(drx * drx + dry * dry), 1e-9)
+        res = ranges[k] - (lt + lr)
+        jx, jy = dtx / lt + drx / lr, dty / lt + dry / lr
+        a00 += w[k] * jx * jx
+        a01 += w[k] * jx * jy
+        a11 += w[k] * jy * jy
+        g0 += w[k] * jx * res
+        g1 += w[k] * jy * res
+        cost += w[k] * res * res
+    return a00, a01, a11, g0, g1, cost
+
+
+@_jit
+def _same_bits(a, b):  # pragma: no cover - compiled
+    """Whether a and b are the same float (``==`` with the sign of zero; NaN never)."""
+    return a == b and math.copysign(1.0, a) == math.copysign(1.0, b)
+
+
+@_jit
+def gauss_newton_exact(ranges, w, tx, rx, px, py, n_iter):  # pragma: no cover - compiled
+    """``localization.compiled._gauss_newton`` from (px, py), stopped early where that changes no bit.
+
+    The iteration p_{i+1} = p_i + (A_i + reg I)^-1 g_i is a fixed function of p_i, so once p_{i+1} == p_i every later
+    p is p_i, and once p_{i+1} == p_{i-1} the sequence alternates with period 2 and p_n is p_{i-1} or p_i by the
+    parity of n - i. Either way the n_iter-th point is known and only its sums are evaluated. Returns ``(x, y,
+    cost, A00, A01, A11, iterations run)``.
+    """
+    ox, oy = np.nan, np.nan
+    it = 0
+    while it < n_iter:
+        a00, a01, a11, g0, g1, _ = _normal_equations(ranges, w, tx, rx, px, py)
+        reg = 1e-9 * (a00 + a11 + 1e-12)
+        b00, b11 = a00 + reg, a11 + reg
+        det = b00 * b11 - a01 * a01
+        nx = px + (b11 * g0 - a01 * g1) / det
+        ny = py + (b00 * g1 - a01 * g0) / det
+        if _same_bits(nx, px) and _same_bits(ny, py):
+            break  # a fixed point: p_n = p_it
+        if _same_bits(nx, ox) and _same_bits(ny, oy):  # p_{it+1} = p_{it-1}: a 2-cycle
+            if (n_iter - it) % 2 == 1:
+                px, py = ox, oy
+            break
+        ox, oy, px, py = px, py, nx, ny
+        it += 1
+    a00, a01, a11, _, _, cost = _normal_equations(ranges, w, tx, rx, px, py)
+    return px, py, cost, a00, a01, a11, it
+
+
+@_jit
+def _best_fit(ranges, w, tx, rx, starts, n_iter):  # pragma: no cover - compiled
+    """One tuple's fit from every start: the least cost's ``(x, y, cost, A00, A01, A11)`` (the first of equals).
+
+    ``ellipse_intersection``'s choice of start, before its covariance.
+    """
+    bc = np.inf
+    bx = by = i00 = i01 = i11 = 0.0
+    for s in range(starts.shape[0]):
+        x, y, c, a00, a01, a11, _ = gauss_newton_exact(ranges, w, tx, rx, starts[s, 0], starts[s, 1], n_iter)
+        if c < bc:
+            bc, bx, by, i00, i01, i11 = c, x, y, a00, a01, a11
+    return bx, by, bc, i00, i01, i11
+
+
 @_jit
 def _range_only_candidates(rs, vs, counts, gtx, grx, nu, area, starts, residual_max):  # pragma: no cover
     """:func:`range_only_candidates` of one environment's groups (ranges ``rs[g, :counts[g]]``), compiled.
@@ -337,6 +478,9 @@ def _range_only_candidates(rs, vs, counts, gtx, grx, nu, area, starts, residual_
     Same rows in the same order: the nu-subsets of groups in lexicographic order, each one's detection tuples in
     ``meshgrid(..., indexing="ij")`` order; two receivers of one transmitter by the closed form
     (``two_ellipse_intersections``), otherwise Gauss-Newton (``ellipse_intersection``) with the residual test.
+    The Gauss-Newton rows give the same bits as ``ellipse_intersection`` on every tuple with fewer operations:
+    tuples whose cost cannot reach the residual bound anywhere in the area (:func:`_residual_lower_bound`) are
+    rejected before the fit, and each start stops at an exact fixed point or 2-cycle (:func:`gauss_newton_exact`).
     """
     G = counts.shape[0]
     combos = []
@@ -379,27 +523,45 @@ def _range_only_candidates(rs, vs, counts, gtx, grx, nu, area, starts, residual_
                         cs[k] = cov[n_, s]
                         k += 1
         return ps[:k], cs[:k]
-    r = np.empty((n_rows, nu))
-    v = np.empty((n_rows, nu))
-    t = np.empty((n_rows, nu, 2))
-    x = np.empty((n_rows, nu, 2))
+    # Gauss-Newton on each tuple that the residual's lower bound does not rule out (module docstring)
+    focal, near, far = _gate_constants(gtx, grx, area)
+    threshold = residual_max * (1.0 + _GATE_MARGIN) if nu > 2 else np.inf  # nu = 2: no residual test
+    ps = np.empty((n_rows, 2))
+    cs = np.empty((n_rows, 2, 2))
+    r = np.empty(nu)
+    w = np.empty(nu)
+    v = np.empty(nu)
+    t = np.empty((nu, 2))
+    x = np.empty((nu, 2))
+    members = np.empty(nu, np.int64)
     k = 0
     for a, b, c in combos:
+        members[0], members[1] = a, b
+        if c >= 0:
+            members[2] = c
         nc = counts[c] if c >= 0 else 1
         for i in range(counts[a]):
             for j in range(counts[b]):
                 for h in range(nc):
-                    r[k, 0], v[k, 0], t[k, 0], x[k, 0] = rs[a, i], vs[a, i], gtx[a], grx[a]
-                    r[k, 1], v[k, 1], t[k, 1], x[k, 1] = rs[b, j], vs[b, j], gtx[b], grx[b]
+                    r[0], v[0], t[0], x[0] = rs[a, i], vs[a, i], gtx[a], grx[a]
+                    r[1], v[1], t[1], x[1] = rs[b, j], vs[b, j], gtx[b], grx[b]
                     if c >= 0:
-                        r[k, 2], v[k, 2], t[k, 2], x[k, 2] = rs[c, h], vs[c, h], gtx[c], grx[c]
+                        r[2], v[2], t[2], x[2] = rs[c, h], vs[c, h], gtx[c], grx[c]
+                    if _residual_lower_bound(r, v, members, focal, near, far) > threshold:
+                        continue  # no point of the area meets the ranges within the residual bound
+                    for q in range(nu):
+                        w[q] = 1.0 / v[q]
+                    px, py, cost, i00, i01, i11 = _best_fit(r, w, t, x, starts, 15)
+                    if not (_xy_inside(px, py, area) and (nu == 2 or cost <= residual_max)):
+                        continue
+                    reg = 1e-9 * (i00 + i11 + 1e-12)  # ellipse_intersection's covariance, same operations
+                    i00 += reg
+                    i11 += reg
+                    det = i00 * i11 - i01 * i01
+                    ps[k, 0], ps[k, 1] = px, py
+                    cs[k, 0, 0], cs[k, 0, 1], cs[k, 1, 0], cs[k, 1, 1] = i11 / det, -i01 / det, -i01 / det, i00 / det
                     k += 1
-    p, cov, cost = ellipse_intersection(r, v, t, x, starts, 15)
-    keep = np.zeros(n_rows, np.bool_)
-    for n_ in range(n_rows):
-        keep[n_] = _inside(p[n_], area) and (nu == 2 or cost[n_] <= residual_max)
-    idx = np.flatnonzero(keep)
-    return p[idx], cov[idx]
+    return ps[:k], cs[:k]
 
 
 @_jit
