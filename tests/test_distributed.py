@@ -283,7 +283,7 @@ def test_vector_env_equals_single_envs():
     Its lookahead costs agree to 1e-13: numpy's vectorised functions over all environments' tracks at once can
     round the last bit differently from one environment's (as on UrbanWideband-v2: up to 4e-16 relative).
     """
-    vec = UWBVectorEnv(2, scenario="urban-distributed", action_kind="per-tx")
+    vec = UWBVectorEnv(2, scenario="urban-distributed", action_kind="per-tx", track_frame="relative")  # the id's
     singles = [gym.make(ID, **MULTI).unwrapped for _ in range(2)]
     obs, _ = vec.reset(seed=11)
     np.testing.assert_array_equal(obs, np.stack([e.reset(seed=11 + i)[0] for i, e in enumerate(singles)]))
