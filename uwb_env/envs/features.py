@@ -63,12 +63,11 @@ def track_features_reference(
 
 
 @_jit
-def track_features(existence, confirmed, mu, x, P, centre, half, v_max, n_slots):  # pragma: no cover - compiled
-    """``(n_slots, 10 + r)`` slot features (module docstring); arguments as ``track_features_reference``."""
-    N, r = mu.shape
-    feats = np.zeros((n_slots, 10 + r))
+def compiled_slot_order(existence, confirmed):  # pragma: no cover - compiled
+    """``(N,)`` track indices in slot order (:func:`slot_order`), a stable insertion sort (N is a few tens at most)."""
+    N = existence.shape[0]
     order = np.arange(N)
-    for i in range(1, N):  # insertion sort: stable, and N is a few tens at most
+    for i in range(1, N):
         j = i
         k = order[i]
         while j > 0:
@@ -81,6 +80,15 @@ def track_features(existence, confirmed, mu, x, P, centre, half, v_max, n_slots)
             order[j] = o
             j -= 1
         order[j] = k
+    return order
+
+
+@_jit
+def track_features(existence, confirmed, mu, x, P, centre, half, v_max, n_slots):  # pragma: no cover - compiled
+    """``(n_slots, 10 + r)`` slot features (module docstring); arguments as ``track_features_reference``."""
+    N, r = mu.shape
+    feats = np.zeros((n_slots, 10 + r))
+    order = compiled_slot_order(existence, confirmed)
     for s in range(min(N, n_slots)):
         n = order[s]
         vx, vy = P[n, 0, 0], P[n, 2, 2]

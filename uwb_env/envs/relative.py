@@ -85,7 +85,7 @@ import numba as nb
 import numpy as np
 
 from uwb_env.config import ScenarioConfig
-from uwb_env.envs.features import slot_order
+from uwb_env.envs.features import compiled_slot_order, slot_order
 from uwb_env.scene.layout import SceneLayout
 from uwb_env.typing import BoolArray, FloatArray, IntArray
 
@@ -379,25 +379,6 @@ def relative_track_features_reference(
 
 
 # ------------------------------------------------------------------------------------------ compiled kernel
-@_jit
-def compiled_slot_order(existence, confirmed):  # pragma: no cover - compiled
-    """``(N,)`` track indices in slot order (:func:`uwb_env.envs.features.slot_order`), a stable insertion sort."""
-    N = existence.shape[0]
-    order = np.arange(N)
-    for i in range(1, N):
-        j = i
-        k = order[i]
-        while j > 0:
-            o = order[j - 1]
-            before = (confirmed[k] and not confirmed[o]) or (
-                confirmed[k] == confirmed[o] and existence[k] > existence[o]
-            )
-            if not before:
-                break
-            order[j] = o
-            j -= 1
-        order[j] = k
-    return order
 
 
 @_jit
