@@ -52,6 +52,7 @@ scan (:meth:`ParametricSensor.sense`) then only applies the plan, which is what 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -182,6 +183,67 @@ def _columns(m: int) -> dict[str, int]:
     return {**cols, "walk_r": 6 + m, "walk_d": 7 + m, "n": 8 + m}
 
 
+class WaveformRows:
+    """False-alarm rows ``(W, N, n)`` measured per waveform on first use (``EpisodeSensing.clutter_rows``).
+
+    Waveform w's rows are ``ParametricSensor._measure`` of the episode's noise-free false alarms through w: the same
+    call on the same inputs whenever it runs, so measuring only the waveforms an episode sends gives the same
+    numbers as measuring all W at reset (an episode of a scheduler sends a few of the library's). Reads:
+    ``rows[w, sl]`` (one waveform) and ``rows[w_rows, idx]`` (per-row waveforms ``(n,)`` with row indices ``(n,)``);
+    ``np.asarray(rows)`` measures every waveform.
+    """
+
+    __slots__ = ("_measure_waveform", "_measured", "shape")
+
+    def __init__(self, shape: tuple[int, int, int], measure_waveform: Callable[[int], FloatArray]) -> None:
+        self.shape = shape
+        self._measure_waveform = measure_waveform
+        self._measured: list[FloatArray | None] = [None] * shape[0]
+
+    def waveform(self, w: int) -> FloatArray:
+        """Waveform ``w``'s rows ``(N, n)`` (measured on the first call)."""
+        rows = self._measured[w]
+        if rows is None:
+            rows = self._measured[w] = self._measure_waveform(w)
+        return rows
+
+    def __getitem__(self, key: tuple) -> FloatArray:
+        w, *rest = key if isinstance(key, tuple) else (key,)
+        if isinstance(w, (int, np.integer)):
+            return self.waveform(int(w))[tuple(rest)]
+        w = np.asarray(w)
+        if len(rest) == 1 and w.ndim == 1 and np.shape(rest[0]) == w.shape:  # per-row waveforms (sense)
+            idx = np.asarray(rest[0])
+            out = np.empty((w.size, self.shape[2]))
+            for u in np.unique(w):  # the waveforms sent in one scan: a few
+                sel = w == u
+                out[sel] = self.waveform(int(u))[idx[sel]]
+            return out
+        return np.asarray(self)[key]
+
+    def __array__(self, dtype: object = None, copy: object = None) -> FloatArray:
+        out = np.stack([self.waveform(w) for w in range(self.shape[0])]) if self.shape[0] else np.zeros(self.shape)
+        return out if dtype is None else out.astype(dtype)
+
+    def __len__(self) -> int:
+        return self.shape[0]
+
+
+class _ClutterMeasurement:
+    """``ParametricSensor._measure`` of an episode's false alarms through one waveform (a picklable callable)."""
+
+    __slots__ = ("args", "base", "sensor")
+
+    def __init__(self, sensor: ParametricSensor, base: FloatArray, args: tuple) -> None:
+        self.sensor, self.base, self.args = sensor, base, args
+
+    def __call__(self, w: int) -> FloatArray:
+        e, az, n_az, tx, rx, m, azimuth_cache, scale = self.args
+        rows = self.base.copy()
+        self.sensor._measure(rows, e, az, n_az, tx, rx, w, m, azimuth_cache, scale)
+        return rows
+
+
 @dataclass(frozen=True, slots=True)
 class EpisodeSensing:
     """Everything a scan can return in one episode, for every waveform of the library (module docstring).
@@ -195,7 +257,8 @@ class EpisodeSensing:
         target_rows: ``(W, S, T, R, K, 8 + m)`` every possible target detection in the row layout above.
         target_hit: ``(W, S, T, R, K)`` the square-law decision |sqrt(SNR) + n|^2 > V_T, or a noise peak in the
             truth-matching window (``SensingConfig.noise_window_cells``) (False where not covered).
-        clutter_rows: ``(W, N, 8 + m)`` the false alarms that fall in their pair's gate, sorted by scan then pair.
+        clutter_rows: ``(W, N, 8 + m)`` the false alarms that fall in their pair's gate, sorted by scan then pair
+            (:class:`WaveformRows`: each waveform's measured when first read).
         clutter_tx, clutter_rx: ``(N,)`` their nodes.
         clutter_start: ``(S + 1,)`` offsets of each scan's false alarms.
         clutter_keep: ``(W, N)`` whether each waveform keeps each row (the per-waveform false-alarm rate,
@@ -206,7 +269,7 @@ class EpisodeSensing:
     geometry: EpisodeGeometry
     target_rows: FloatArray
     target_hit: BoolArray
-    clutter_rows: FloatArray
+    clutter_rows: WaveformRows
     clutter_tx: np.ndarray
     clutter_rx: np.ndarray
     clutter_start: np.ndarray
@@ -931,11 +994,14 @@ class ParametricSensor:
             if c_keep is not None:  # ghosts: every waveform's
                 c_keep = np.concatenate([c_keep, np.ones((W, g_scan.size), dtype=bool)], axis=1)[:, order]
             n_c = c_base.shape[0]
-        clutter_rows = np.empty((W, n_c, col["n"]))
         c_scale = 1.0 / np.sqrt(c_base[:, col["snr"]])  # false alarms' SNR is the same for every waveform
-        for w in range(W):  # the waveform library: a small fixed set
-            clutter_rows[w] = c_base
-            self._measure(clutter_rows[w], c_e[:, :m], c_az, c_e[:, m], c_t, c_r, w, m, clutter_azimuth, c_scale)
+        clutter_rows = WaveformRows(
+            (W, n_c, col["n"]),
+            _ClutterMeasurement(self, c_base, (c_e[:, :m], c_az, c_e[:, m], c_t, c_r, m, clutter_azimuth, c_scale)),
+        )
+        if self._any_doa:  # waveforms of one carrier share the azimuth columns of the first measured: in order
+            for w in range(W):  # the waveform library: a small fixed set
+                clutter_rows.waveform(w)
         return EpisodeSensing(
             geometry=geom,
             target_rows=target_rows,
