@@ -432,25 +432,27 @@ def gauss_newton_exact(ranges, w, tx, rx, px, py, n_iter):  # pragma: no cover -
 
     The iteration p_{i+1} = p_i + (A_i + reg I)^-1 g_i is a fixed function of p_i, so once p_{i+1} == p_i every later
     p is p_i, and once p_{i+1} == p_{i-1} the sequence alternates with period 2 and p_n is p_{i-1} or p_i by the
-    parity of n - i. Either way the n_iter-th point is known and only its sums are evaluated. Returns ``(x, y,
-    cost, A00, A01, A11, iterations run)``.
+    parity of n - i. Either way the n_iter-th point is known, and its sums were evaluated already (the sums are a
+    fixed function of p too). Returns ``(x, y, cost, A00, A01, A11, iterations run)``.
     """
-    ox, oy = np.nan, np.nan
+    ox = oy = np.nan
+    o00 = o01 = o11 = ocost = np.nan  # the sums at p_{it-1}
     it = 0
     while it < n_iter:
-        a00, a01, a11, g0, g1, _ = _normal_equations(ranges, w, tx, rx, px, py)
+        a00, a01, a11, g0, g1, cost = _normal_equations(ranges, w, tx, rx, px, py)
         reg = 1e-9 * (a00 + a11 + 1e-12)
         b00, b11 = a00 + reg, a11 + reg
         det = b00 * b11 - a01 * a01
         nx = px + (b11 * g0 - a01 * g1) / det
         ny = py + (b00 * g1 - a01 * g0) / det
         if _same_bits(nx, px) and _same_bits(ny, py):
-            break  # a fixed point: p_n = p_it
+            return px, py, cost, a00, a01, a11, it  # a fixed point: p_n = p_it, whose sums are these
         if _same_bits(nx, ox) and _same_bits(ny, oy):  # p_{it+1} = p_{it-1}: a 2-cycle
             if (n_iter - it) % 2 == 1:
-                px, py = ox, oy
-            break
-        ox, oy, px, py = px, py, nx, ny
+                return ox, oy, ocost, o00, o01, o11, it
+            return px, py, cost, a00, a01, a11, it
+        ox, oy, o00, o01, o11, ocost = px, py, a00, a01, a11, cost
+        px, py = nx, ny
         it += 1
     a00, a01, a11, _, _, cost = _normal_equations(ranges, w, tx, rx, px, py)
     return px, py, cost, a00, a01, a11, it
