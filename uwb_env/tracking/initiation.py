@@ -9,7 +9,10 @@ Candidates (one scan):
       mirror, which the next scan's velocity gate tells apart); otherwise least-squares intersection of the iso-range
       ellipses of a nu-tuple of detections from different receivers (seed 000 section V-A, eqs. 16-23): Gauss-Newton
       on sum_k (r_k - h_k(p))^2 / var_k from several starts, kept if inside the surveillance area and (for nu > 2)
-      its normalised residual passes the chi-square test; covariance (J^T V^-1 J)^-1.
+      its normalised residual passes the chi-square test; covariance (J^T V^-1 J)^-1. The compiled path gives the
+      same bits with less work: a lower bound of the residual over the area (triangle inequality on the ranges'
+      foci, :func:`_residual_lower_bound`) rejects most tuples before Gauss-Newton, and each start stops at an exact
+      fixed point or 2-cycle of the iteration (:func:`gauss_newton_exact`).
 For chirps the range is the ridge-corrected one, r - (R_rd / R_dd) rdot, whose variance R_rr - R_rd^2 / R_dd is
 the delay-Doppler ridge's (see uwb_env.sensing): the single-chirp range-rate is too coarse to use otherwise.
 
