@@ -385,19 +385,29 @@ def _residual_lower_bound(r, v, members, focal, near, far):  # pragma: no cover 
     bound, so rejecting the others changes nothing (tests/unit/test_initiation_speed.py).
     """
     nu = r.shape[0]
-    single = np.empty(3)
-    for q in range(nu):
-        g = members[q]
-        d = near[g] - r[q] if r[q] < near[g] else (r[q] - far[g] if r[q] > far[g] else 0.0)
-        single[q] = d * d / v[q]
-    best = single[0] + single[1] + (single[2] if nu == 3 else 0.0)
-    for q in range(nu):
-        for s in range(q + 1, nu):
-            m = abs(r[q] - r[s]) - focal[members[q], members[s]]
-            if m > 0.0:
-                rest = single[3 - q - s] if nu == 3 else 0.0  # the third member's own term
-                best = max(best, m * m / (v[q] + v[s]) + rest)
+    s0 = _single_bound(r[0], v[0], near[members[0]], far[members[0]])
+    s1 = _single_bound(r[1], v[1], near[members[1]], far[members[1]])
+    s2 = _single_bound(r[2], v[2], near[members[2]], far[members[2]]) if nu == 3 else 0.0
+    best = s0 + s1 + s2
+    best = max(best, _pair_bound(r[0], v[0], r[1], v[1], focal[members[0], members[1]]) + s2)
+    if nu == 3:
+        best = max(best, _pair_bound(r[0], v[0], r[2], v[2], focal[members[0], members[2]]) + s1)
+        best = max(best, _pair_bound(r[1], v[1], r[2], v[2], focal[members[1], members[2]]) + s0)
     return best
+
+
+@_jit
+def _single_bound(r, v, near, far):  # pragma: no cover - compiled
+    """One range's term bound: dist(r, [near, far])^2 / v (:func:`_residual_lower_bound`)."""
+    d = near - r if r < near else (r - far if r > far else 0.0)
+    return d * d / v
+
+
+@_jit
+def _pair_bound(r_k, v_k, r_l, v_l, focal):  # pragma: no cover - compiled
+    """Two ranges' terms bound: max(|r_k - r_l| - focal, 0)^2 / (v_k + v_l) (:func:`_residual_lower_bound`)."""
+    m = abs(r_k - r_l) - focal
+    return m * m / (v_k + v_l) if m > 0.0 else 0.0
 
 
 @_jit
@@ -544,14 +554,17 @@ def _range_only_candidates(rs, vs, counts, gtx, grx, nu, area, starts, residual_
         members[0], members[1] = a, b
         if c >= 0:
             members[2] = c
+        for q in range(nu):  # the subset's nodes (the same for each of its tuples)
+            for d in range(2):
+                t[q, d], x[q, d] = gtx[members[q], d], grx[members[q], d]
         nc = counts[c] if c >= 0 else 1
         for i in range(counts[a]):
             for j in range(counts[b]):
                 for h in range(nc):
-                    r[0], v[0], t[0], x[0] = rs[a, i], vs[a, i], gtx[a], grx[a]
-                    r[1], v[1], t[1], x[1] = rs[b, j], vs[b, j], gtx[b], grx[b]
+                    r[0], v[0] = rs[a, i], vs[a, i]
+                    r[1], v[1] = rs[b, j], vs[b, j]
                     if c >= 0:
-                        r[2], v[2], t[2], x[2] = rs[c, h], vs[c, h], gtx[c], grx[c]
+                        r[2], v[2] = rs[c, h], vs[c, h]
                     if _residual_lower_bound(r, v, members, focal, near, far) > threshold:
                         continue  # no point of the area meets the ranges within the residual bound
                     for q in range(nu):
