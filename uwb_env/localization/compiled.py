@@ -17,25 +17,35 @@ from uwb_env.typing import FloatArray
 
 
 @nb.njit(cache=True, fastmath=False, nogil=True)
+def normal_equations(ranges, w, tx, rx, px, py):  # pragma: no cover - compiled
+    """Gauss-Newton's sums at p = (px, py): ``(A00, A01, A11, g0, g1, cost)``, A = J^T W J, g = J^T W res.
+
+    Residuals res_k = r_k - (|p - tx_k| + |p - rx_k|) of the bistatic ranges ``ranges (nu,)``, weights ``w (nu,)``,
+    node positions ``tx, rx (nu, 2)``; used by ``_gauss_newton`` and ``tracking.initiation.gauss_newton_exact``.
+    """
+    a00 = a01 = a11 = g0 = g1 = cost = 0.0
+    for k in range(ranges.shape[0]):
+        dtx, dty = px - tx[k, 0], py - tx[k, 1]
+        drx, dry = px - rx[k, 0], py - rx[k, 1]
+        lt = max(math.sqrt(dtx * dtx + dty * dty), 1e-9)
+        lr = max(math.sqrt(drx * drx + dry * dry), 1e-9)
+        res = ranges[k] - (lt + lr)
+        jx, jy = dtx / lt + drx / lr, dty / lt + dry / lr
+        a00 += w[k] * jx * jx
+        a01 += w[k] * jx * jy
+        a11 += w[k] * jy * jy
+        g0 += w[k] * jx * res
+        g1 += w[k] * jy * res
+        cost += w[k] * res * res
+    return a00, a01, a11, g0, g1, cost
+
+
+@nb.njit(cache=True, fastmath=False, nogil=True)
 def _gauss_newton(ranges, w, tx, rx, p0, n_iter):  # pragma: no cover - compiled
     """One tuple from one start: ``(x, y, cost, i00, i01, i11)`` with the information at the solution."""
     px, py = p0[0], p0[1]
-    nu = ranges.shape[0]
     for it in range(n_iter + 1):
-        a00 = a01 = a11 = g0 = g1 = cost = 0.0
-        for k in range(nu):
-            dtx, dty = px - tx[k, 0], py - tx[k, 1]
-            drx, dry = px - rx[k, 0], py - rx[k, 1]
-            lt = max(math.sqrt(dtx * dtx + dty * dty), 1e-9)
-            lr = max(math.sqrt(drx * drx + dry * dry), 1e-9)
-            res = ranges[k] - (lt + lr)
-            jx, jy = dtx / lt + drx / lr, dty / lt + dry / lr
-            a00 += w[k] * jx * jx
-            a01 += w[k] * jx * jy
-            a11 += w[k] * jy * jy
-            g0 += w[k] * jx * res
-            g1 += w[k] * jy * res
-            cost += w[k] * res * res
+        a00, a01, a11, g0, g1, cost = normal_equations(ranges, w, tx, rx, px, py)
         if it == n_iter:
             return px, py, cost, a00, a01, a11
         reg = 1e-9 * (a00 + a11 + 1e-12)

@@ -34,7 +34,7 @@ import numba as nb
 import numpy as np
 from scipy.stats import chi2
 
-from uwb_env.localization.compiled import ellipse_intersection_fast, two_ellipse_intersections
+from uwb_env.localization.compiled import ellipse_intersection_fast, normal_equations, two_ellipse_intersections
 from uwb_env.tracking.compiled import initiate
 from uwb_env.typing import BoolArray, FloatArray, IntArray
 
@@ -411,29 +411,6 @@ def _pair_bound(r_k, v_k, r_l, v_l, focal):  # pragma: no cover - compiled
 
 
 @_jit
-def _normal_equations(ranges, w, tx, rx, px, py):  # pragma: no cover - compiled
-    """Gauss-Newton's sums at p: ``(A00, A01, A11, g0, g1, cost)``, A = J^T W J, g = J^T W res.
-
-    ``localization.compiled._gauss_newton``'s loop body, its operations in its order (the same bits).
-    """
-    a00 = a01 = a11 = g0 = g1 = cost = 0.0
-    for k in range(ranges.shape[0]):
-        dtx, dty = px - tx[k, 0], py - tx[k, 1]
-        drx, dry = px - rx[k, 0], py - rx[k, 1]
-        lt = max(math.sqrt(dtx * dtx + dty * dty), 1e-9)
-        lr = max(math.sqrt(drx * drx + dry * dry), 1e-9)
-        res = ranges[k] - (lt + lr)
-        jx, jy = dtx / lt + drx / lr, dty / lt + dry / lr
-        a00 += w[k] * jx * jx
-        a01 += w[k] * jx * jy
-        a11 += w[k] * jy * jy
-        g0 += w[k] * jx * res
-        g1 += w[k] * jy * res
-        cost += w[k] * res * res
-    return a00, a01, a11, g0, g1, cost
-
-
-@_jit
 def _same_bits(a, b):  # pragma: no cover - compiled
     """Whether a and b are the same float (``==`` with the sign of zero; NaN never)."""
     return a == b and math.copysign(1.0, a) == math.copysign(1.0, b)
@@ -452,7 +429,7 @@ def gauss_newton_exact(ranges, w, tx, rx, px, py, n_iter):  # pragma: no cover -
     o00 = o01 = o11 = ocost = np.nan  # the sums at p_{it-1}
     it = 0
     while it < n_iter:
-        a00, a01, a11, g0, g1, cost = _normal_equations(ranges, w, tx, rx, px, py)
+        a00, a01, a11, g0, g1, cost = normal_equations(ranges, w, tx, rx, px, py)
         reg = 1e-9 * (a00 + a11 + 1e-12)
         b00, b11 = a00 + reg, a11 + reg
         det = b00 * b11 - a01 * a01
@@ -467,7 +444,7 @@ def gauss_newton_exact(ranges, w, tx, rx, px, py, n_iter):  # pragma: no cover -
         ox, oy, o00, o01, o11, ocost = px, py, a00, a01, a11, cost
         px, py = nx, ny
         it += 1
-    a00, a01, a11, _, _, cost = _normal_equations(ranges, w, tx, rx, px, py)
+    a00, a01, a11, _, _, cost = normal_equations(ranges, w, tx, rx, px, py)
     return px, py, cost, a00, a01, a11, it
 
 
