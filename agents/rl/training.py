@@ -570,7 +570,13 @@ def check_run_folder(out: Path, run_yaml: dict, resume: bool, fixed: tuple[str, 
 
 
 def _train(cfg: TrainConfig, common: dict, hyper: dict, resume: bool, progress: bool, meta: str) -> BaseAlgorithm:
-    """Build or restore the model, then write ``run.yaml`` (so a model the arguments cannot build leaves no run)."""
+    """Build or restore the model, then write ``run.yaml`` (so a model the arguments cannot build leaves no run).
+
+    Torch runs on one thread: the policies are small MLPs, for which one thread is fastest, and torch's default (one
+    per core, spinning while they wait) made several training processes on one machine crawl: four on these 2-core
+    machines trained at ~30-60 steps/s each, and at ~370-920 with one thread each.
+    """
+    th.set_num_threads(1)
     out = cfg.out
     normalize = common.get("normalize")
     venv = make_vec_env(cfg.env_id, int(common.get("n_envs", 1)), cfg.seed, cfg.env_kwargs,
