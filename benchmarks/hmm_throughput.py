@@ -17,10 +17,9 @@ Three timings, medians over ``--repeats`` (after a warm-up: numba compilation):
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
 
 import numpy as np
+from timing import call_rate
 
 from uwb_env import scenarios
 from uwb_env.detection import hmm
@@ -29,17 +28,6 @@ from uwb_env.scene import sample_truth
 from uwb_env.sensing import ScanPlan
 from uwb_env.sensing.signal import SignalSensor
 from uwb_env.sensing.signal.cir import CirConfig, RoomConfig, bin_energy, point_grid, simulate_room
-
-
-def _rate(fn, n: int, repeats: int) -> tuple[float, float, float]:
-    fn()  # warm-up
-    rates = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        for _ in range(n):
-            fn()
-        rates.append(n / (time.perf_counter() - t0))
-    return statistics.median(rates), min(rates), max(rates)
 
 
 def main() -> None:
@@ -64,12 +52,12 @@ def main() -> None:
         pairs,
         ep.reference_scan[0, pairs],
     )
-    med, lo, hi = _rate(lambda: s.in_sensor(*args_in), args.scans, args.repeats)
+    med, lo, hi = call_rate(lambda: s.in_sensor(*args_in), args.scans, args.repeats)
     print(f"signal sensor, HMM chain (indoor-rsn, {P} pairs x {scans.shape[1]} samples, {s.hmm_n_bins} bins):")
     print(f"  {med:.0f} scans/s [{lo:.0f}-{hi:.0f}]")
     plan = ScanPlan.all_listening(0, s.n_tx, s.n_rx)
     k = iter(range(10**9))
-    med, lo, hi = _rate(lambda: s.sense(ep, 1 + next(k) % cfg.n_scans, plan), args.scans // 4, args.repeats)
+    med, lo, hi = call_rate(lambda: s.sense(ep, 1 + next(k) % cfg.n_scans, plan), args.scans // 4, args.repeats)
     print(f"signal sensor, sense() with the HMM (synthesis included): {med:.0f} scans/s [{lo:.0f}-{hi:.0f}]")
 
     cir_cfg = CirConfig()
@@ -84,7 +72,7 @@ def main() -> None:
         obs = hmm.kl_observations(cal, test)[:, 1:]
         return hmm.hmm_delay(hmm.changed_posterior(obs, lam))
 
-    med, lo, hi = _rate(link_scan, args.scans, args.repeats)
+    med, lo, hi = call_rate(link_scan, args.scans, args.repeats)
     print(f"seed 004 link detector (6 links x 10 + 10 captures x 40 bins): {med:.0f} scans/s [{lo:.0f}-{hi:.0f}]")
 
 

@@ -12,26 +12,14 @@ relative / absolute calls per second.
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
 
 import numpy as np
+from timing import call_rate
 
 from uwb_env.envs.features import track_features
 from uwb_env.envs.relative import check_geometry, model_groups, relative_track_features
 
 MODELS = ("ncv", "nca", "ct_left", "ct_right")
-
-
-def _rate(fn, n: int, repeats: int) -> tuple[float, float, float]:
-    fn()  # warm-up
-    rates = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        for _ in range(n):
-            fn()
-        rates.append(n / (time.perf_counter() - t0))
-    return statistics.median(rates), min(rates), max(rates)
 
 
 def main() -> None:
@@ -63,8 +51,8 @@ def main() -> None:
     def absolute():
         track_features(existence, confirmed, mu, x, P, centre, half, 15.0, 8)
 
-    rel = _rate(relative, args.calls, args.repeats)
-    ab = _rate(absolute, args.calls, args.repeats)
+    rel = call_rate(relative, args.calls, args.repeats)
+    ab = call_rate(absolute, args.calls, args.repeats)
     print(f"{n} tracks, 8 slots, 2 tx, 3 rx, 6 pairs, 4 models; calls/s median (min, max) over {args.repeats}")
     print(f"relative_track_features  {rel[0]:12,.0f}  ({rel[1]:,.0f}, {rel[2]:,.0f})")
     print(f"track_features           {ab[0]:12,.0f}  ({ab[1]:,.0f}, {ab[2]:,.0f})")
