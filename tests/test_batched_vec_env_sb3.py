@@ -151,6 +151,8 @@ def test_make_vec_env_batched_and_its_errors():
         make_vec_env(URBAN, 2, 3, {}, "nope")
     with pytest.raises(ValueError, match=r"--vectorize batched.*fidelity='signal'"):
         make_vec_env(URBAN, 2, 3, {"fidelity": "signal"}, "batched")
+    with pytest.raises(ValueError, match=r"^--vectorize batched on uwb_env/UrbanFamily-v0: it has no batched vector"):
+        make_vec_env("uwb_env/UrbanFamily-v0", 2, 3, {}, "batched")
 
 
 @pytest.mark.parametrize(

@@ -69,6 +69,11 @@ def make_batched(env_id: str, n_envs: int, env_kwargs: dict[str, Any]) -> VecEnv
     """The batched vector env as SB3's ``VecEnv``; ``ValueError`` naming ``--vectorize batched`` when unsupported."""
     from uwb_env.agents.rl.batched_vec_env import make_batched_vec_env
 
+    if gym.spec(env_id).vector_entry_point is None:
+        raise ValueError(
+            f"--vectorize batched on {env_id}: it has no batched vector env (a scene-family id: every episode a "
+            "different scene); use --vectorize dummy or subproc"
+        )
     try:
         return make_batched_vec_env(env_id, n_envs, env_kwargs)
     except ValueError as e:
