@@ -39,7 +39,7 @@ import gymnasium as gym
 import numpy as np
 
 from uwb_env.config import ScenarioConfig
-from uwb_env.envs.scheduling import UWBSchedulingEnv, check_choice, check_int
+from uwb_env.envs.scheduling import UWBSchedulingEnv, check_choice, check_int, episode_seed
 from uwb_env.rng import STREAM_NAMES
 from uwb_env.scenarios.families import SceneFamily, SceneVariant, family_names, get_family
 from uwb_env.sim import Simulator
@@ -147,14 +147,7 @@ class SceneFamilyEnv(gym.Env):
     # --------------------------------------------------------------------------------------------------- gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
         """Draw the variant of ``split`` from the variant stream of ``seed`` and reset its inner env with ``seed``."""
-        if options:
-            raise ValueError(f"options={options!r}: must be None or {{}} (this env takes no reset options)")
-        if seed is not None:
-            check_int("seed", seed, 0, None)
-            seed = int(seed)
-        super().reset(seed=seed)
-        if seed is None:  # the episode seed from the env's own generator (seeded by an earlier reset)
-            seed = int(self.np_random.integers(2**63 - 1))
+        seed = episode_seed(self, seed, options)
         variant, cfg = self.family.draw(variant_generator(seed), self.split)
         self._env = self._inner(variant, cfg)
         self.variant = variant

@@ -204,6 +204,23 @@ def _waveform_mask(value: object, waveforms: list[str], transmitters: list[str])
     return dead
 
 
+def episode_seed(env: gym.Env, seed: int | None, options: dict[str, Any] | None) -> int:
+    """The episode seed of ``env.reset(seed=seed, options=options)``, after checking both and seeding ``np_random``.
+
+    ``seed`` None draws it from the env's own generator (seeded by an earlier reset). The env takes no reset
+    ``options``: anything but None or an empty dict raises rather than being ignored.
+    """
+    if options:
+        raise ValueError(f"options={options!r}: must be None or {{}} (this env takes no reset options)")
+    if seed is not None:
+        check_int("seed", seed, 0, None)
+        seed = int(seed)
+    gym.Env.reset(env, seed=seed)
+    if seed is None:
+        seed = int(env.np_random.integers(2**63 - 1))
+    return seed
+
+
 def enumerate_plans(
     kind: str, n_waveforms: int, n_tx: int, n_rx: int, subset_size: int, fixed_waveform: int
 ) -> list[ScanPlan]:
@@ -425,14 +442,7 @@ class UWBSchedulingEnv(gym.Env):
 
         The env takes no reset ``options``: anything but None or an empty dict raises rather than being ignored.
         """
-        if options:
-            raise ValueError(f"options={options!r}: must be None or {{}} (this env takes no reset options)")
-        if seed is not None:
-            check_int("seed", seed, 0, None)
-            seed = int(seed)
-        super().reset(seed=seed)
-        if seed is None:  # draw the episode seed from the env's own generator (seeded by an earlier reset)
-            seed = int(self.np_random.integers(2**63 - 1))
+        seed = episode_seed(self, seed, options)
         self.sim.reset(seed)
         self._ready_rx = np.ones(self.sim.sensor.n_rx, dtype=bool)
         self._previous = None

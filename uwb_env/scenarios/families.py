@@ -93,7 +93,7 @@ from uwb_env.config import (
     WallConfig,
 )
 from uwb_env.constants import SPEED_OF_LIGHT_MPS
-from uwb_env.scenarios.urban_intersection import END, START, TURN_RATE, seed003_path
+from uwb_env.scenarios.urban_intersection import END, START, TURN_RATE, seed003_path, seed003_speed_profile
 from uwb_env.scene.geometry import point_segment_distance, segments_cross
 from uwb_env.scene.trajectories import segmented_states
 from uwb_env.sensing.beams import beam_sines
@@ -320,17 +320,8 @@ def seed003_right_path(first_leg_s: float = RIGHT_TURN_FIRST_LEG_S) -> Segmented
     radius = speed_after_turn / TURN_RATE
     y_after_accel = START[1] - radius - (speed_after_turn * 5.0 + 0.5 * 1.0 * 5.0**2)
     end_y = START[1] - (END[1] - START[1])
-    return SegmentedTrajectoryConfig(
-        start_position_m=START,
-        start_velocity_mps=(10.0, 0.0),
-        segments=(
-            MotionSegmentConfig("cv", first_leg_s),
-            MotionSegmentConfig("ca", 5.0, acceleration_mps2=-1.0),
-            MotionSegmentConfig("ct", 10.0, turn_rate_rps=-TURN_RATE),
-            MotionSegmentConfig("ca", 5.0, acceleration_mps2=1.0),
-            MotionSegmentConfig("cv", (y_after_accel - end_y) / 10.0),
-        ),
-    )
+    turn = MotionSegmentConfig("ct", 10.0, turn_rate_rps=-TURN_RATE)
+    return seed003_speed_profile(first_leg_s, turn, (y_after_accel - end_y) / 10.0)
 
 
 def seed003_straight_path(end_x: float = STRAIGHT_END_X) -> SegmentedTrajectoryConfig:
@@ -340,17 +331,7 @@ def seed003_straight_path(end_x: float = STRAIGHT_END_X) -> SegmentedTrajectoryC
     accelerate 1 m/s^2 for 5 s (x = 2125), then 10 m/s until ``end_x``: the three paths differ only in heading.
     """
     x_after_accel = START[0] + 50.0 + 37.5 + 50.0 + 37.5
-    return SegmentedTrajectoryConfig(
-        start_position_m=START,
-        start_velocity_mps=(10.0, 0.0),
-        segments=(
-            MotionSegmentConfig("cv", 5.0),
-            MotionSegmentConfig("ca", 5.0, acceleration_mps2=-1.0),
-            MotionSegmentConfig("cv", 10.0),
-            MotionSegmentConfig("ca", 5.0, acceleration_mps2=1.0),
-            MotionSegmentConfig("cv", (end_x - x_after_accel) / 10.0),
-        ),
-    )
+    return seed003_speed_profile(5.0, MotionSegmentConfig("cv", 10.0), (end_x - x_after_accel) / 10.0)
 
 
 # ------------------------------------------------------------------------------------------------------- families

@@ -150,13 +150,25 @@ def seed003_path(first_leg_s: float = 5.0) -> SegmentedTrajectoryConfig:
     radius = speed_after_turn / TURN_RATE
     y_after_accel = START[1] + radius + (speed_after_turn * 5.0 + 0.5 * 1.0 * 5.0**2)
     last_leg_s = (END[1] - y_after_accel) / 10.0
+    return seed003_speed_profile(first_leg_s, MotionSegmentConfig("ct", 10.0, turn_rate_rps=TURN_RATE), last_leg_s)
+
+
+def seed003_speed_profile(
+    first_leg_s: float, crossing: MotionSegmentConfig, last_leg_s: float
+) -> SegmentedTrajectoryConfig:
+    """Seed 003's speed profile from (1950, 1500) heading east, with its crossing segment and leg lengths given.
+
+    10 m/s for ``first_leg_s``, decelerate 1 m/s^2 for 5 s, the 10 s ``crossing`` segment (the turn, or straight on),
+    accelerate 1 m/s^2 for 5 s, 10 m/s for ``last_leg_s``: the paths of ``uwb_env.scenarios.families`` differ from the
+    seed's only in these three.
+    """
     return SegmentedTrajectoryConfig(
         start_position_m=START,
         start_velocity_mps=(10.0, 0.0),
         segments=(
             MotionSegmentConfig("cv", first_leg_s),
             MotionSegmentConfig("ca", 5.0, acceleration_mps2=-1.0),
-            MotionSegmentConfig("ct", 10.0, turn_rate_rps=TURN_RATE),
+            crossing,
             MotionSegmentConfig("ca", 5.0, acceleration_mps2=1.0),
             MotionSegmentConfig("cv", last_leg_s),
         ),
