@@ -171,8 +171,9 @@ def model_groups(
     return single_models, turn_pairs
 
 
+@_jit
 def relative_feature_count(n_tx: int, n_rx: int, n_pairs: int, n_single_models: int, n_turn_pairs: int) -> int:
-    """Width F of one slot (module docstring's layout)."""
+    """Width F of one slot (module docstring's layout); compiled, so the kernels below call it too."""
     return (
         N_SLOT_HEAD
         + N_TX_FEATURES * n_tx
@@ -421,8 +422,7 @@ def relative_track_features(
     Q = pairs.shape[0]
     a = single_models.shape[0]
     b = turn_pairs.shape[0]
-    F = 4 + 7 * T + 8 * R + 3 * Q + a + 2 * b
-    feats = np.zeros((n_slots, F))
+    feats = np.zeros((n_slots, relative_feature_count(T, R, Q, a, b)))
     order = compiled_slot_order(existence, confirmed)
     M = T + R
     bx = np.cos(rx_boresight_rad)  # nan without array
@@ -493,4 +493,28 @@ def relative_track_features(
             left, right = mu[n, turn_pairs[k, 0]], mu[n, turn_pairs[k, 1]]
             f[c + 2 * k] = left + right
             f[c + 2 * k + 1] = abs(left - right)
+    return feats
+
+
+@_jit
+def relative_track_features_batched(
+    track_start, existence, confirmed, mu, x, P, tx_pos, rx_pos, rx_boresight_rad, pairs, single_models, turn_pairs,
+    range_scale_m, v_max, n_slots,
+):  # pragma: no cover - compiled  # fmt: skip
+    """``(E, n_slots, F)``: :func:`relative_track_features` of E environments in one call (the batched env).
+
+    Environment e owns the tracks ``track_start[e]:track_start[e + 1]`` of the concatenated arrays (as
+    ``uwb_env.envs.outputs.scan_summaries``); the scene arguments are shared.
+    """
+    E = track_start.shape[0] - 1
+    F = relative_feature_count(
+        tx_pos.shape[0], rx_pos.shape[0], pairs.shape[0], single_models.shape[0], turn_pairs.shape[0]
+    )
+    feats = np.zeros((E, n_slots, F))
+    for e in range(E):
+        a0, a1 = track_start[e], track_start[e + 1]
+        feats[e] = relative_track_features(
+            existence[a0:a1], confirmed[a0:a1], mu[a0:a1], x[a0:a1], P[a0:a1], tx_pos, rx_pos, rx_boresight_rad,
+            pairs, single_models, turn_pairs, range_scale_m, v_max, n_slots,
+        )  # fmt: skip
     return feats

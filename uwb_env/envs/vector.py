@@ -45,6 +45,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space, create_empty_array
 
 from uwb_env.envs.outputs import observations, one_env, rewards_and_infos, scan_summaries
+from uwb_env.envs.relative import relative_track_features_batched
 from uwb_env.envs.scheduling import OBS_BOUND, UWBSchedulingEnv, _scaled_cost
 from uwb_env.lookahead import expected_posterior, position_trace
 from uwb_env.sensing.batch import sense_many
@@ -342,13 +343,9 @@ class UWBVectorEnv(VectorEnv):
         if first.receiver_warmup:
             extra["ready_receivers"] = np.array([self.envs[e]._ready_rx for e in envs.tolist()], dtype=float)
         feats = summ[-1]
-        if first.track_frame != "absolute":  # the summaries' slots are the absolute ones: each env's own frame
-            start = _offsets(sizes)
-            feats = np.stack(
-                [
-                    first.track_slots(*(a[start[i] : start[i + 1]] for a in (existence, confirmed, mu, xc, Pc)))
-                    for i in range(len(sizes))
-                ]
+        if first._relative_scene is not None:  # the summaries' slots are the absolute ones
+            feats = relative_track_features_batched(
+                _offsets(sizes), existence, confirmed, mu, xc, Pc, *first._relative_scene, first._v_max, first.n_slots
             )
         obs = observations(feats, actions, len(self.plans), extra, first.obs_kind, OBS_BOUND, ks, first.action_dims)
         return rewards, info, obs
