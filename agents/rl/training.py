@@ -55,7 +55,8 @@ from tqdm.auto import tqdm
 
 import uwb_env  # noqa: F401  (registers the env ids)
 from uwb_env.agents.multiseed import is_multi_seed, plot_learning_curves, seed_folder
-from uwb_env.agents.schedulers import make_scheduler
+from uwb_env.agents.rl.imitation import DEMO_SEED0, demonstrate, warm_start
+from uwb_env.agents.schedulers import check_scheduler_name, make_scheduler
 from uwb_env.agents.storage import FolderLock, atomic_write, atomic_write_text, move_aside, read_error
 from uwb_env.envs import ENV_IDS
 
@@ -319,7 +320,10 @@ def load_scheduler(run: str | Path) -> PolicyScheduler:
 
 
 # ------------------------------------------------------------------------------------------ configuration checks
-COMMON_KEYS = ("n_envs", "vec_env", "normalize", "eval_freq", "eval_episodes", "checkpoint_freq")
+COMMON_KEYS = ("n_envs", "vec_env", "normalize", "eval_freq", "eval_episodes", "checkpoint_freq", "bc_steps",
+               "bc_scheduler", "bc_epochs")  # fmt: skip
+"""The preset's ``common`` keys. ``bc_steps`` > 0: a behaviour-cloning warm start from ``bc_scheduler`` (default
+``myopic``) on that many demonstration steps, ``bc_epochs`` (default 20) passes (``agents/rl/imitation.py``)."""
 RESERVED = {  # constructor arguments the command sets itself
     "env": "the env is --env with --env-kwarg",
     "seed": "use --seed",
@@ -329,7 +333,7 @@ RESERVED = {  # constructor arguments the command sets itself
     "_init_setup_model": "internal to stable-baselines3",
 }
 POSITIVE_INTS = {"n_envs", "eval_freq", "eval_episodes", "checkpoint_freq", "n_steps", "batch_size", "n_epochs",
-                 "buffer_size", "train_freq", "target_update_interval", "gradient_steps"}  # fmt: skip
+                 "buffer_size", "train_freq", "target_update_interval", "gradient_steps", "bc_epochs"}  # fmt: skip
 UNIT_INTERVAL = {"gamma", "gae_lambda", "exploration_fraction", "exploration_initial_eps", "exploration_final_eps"}
 
 
@@ -348,7 +352,7 @@ def check_hyper(key: str, value: Any, preset_value: Any, algo: str) -> None:
     is_int = isinstance(value, int) and not isinstance(value, bool)
     if key in POSITIVE_INTS and (not is_int or value < 1):
         raise ValueError(f"--hyper {key}={value!r}: must be an integer >= 1")
-    if key == "learning_starts" and (not is_int or value < 0):
+    if key in ("learning_starts", "bc_steps") and (not is_int or value < 0):
         raise ValueError(f"--hyper {key}={value!r}: must be an integer >= 0")
     number = isinstance(value, int | float) and not isinstance(value, bool)
     if key in UNIT_INTERVAL and (not number or not 0.0 <= value <= 1.0):
@@ -358,6 +362,11 @@ def check_hyper(key: str, value: Any, preset_value: Any, algo: str) -> None:
     if key == "vec_env" and value not in VEC_ENVS:
         raise ValueError(f"--hyper vec_env={value!r}: must be 'dummy' or 'subproc' (SB3's) or 'batched' (the batched "
                          "vector env, as --vectorize batched)")  # fmt: skip
+    if key == "bc_scheduler":
+        if not isinstance(value, str) or value.startswith(("rl:", "rllib:")):
+            raise ValueError(f"--hyper bc_scheduler={value!r}: must name a scheduler of this package (myopic, "
+                             "lookahead-2, ...), not a trained run")  # fmt: skip
+        check_scheduler_name(value)
     if key == "normalize" and not (value is False or value is None or isinstance(value, dict)):
         raise ValueError(f"--hyper normalize={value!r}: must be false or a mapping of VecNormalize arguments")
     if preset_value is not None and type(preset_value) is bool and type(value) is not bool:
@@ -602,6 +611,12 @@ def _train(cfg: TrainConfig, common: dict, hyper: dict, resume: bool, progress: 
         except (TypeError, ValueError, AssertionError) as e:  # SB3 asserts some of its arguments
             venv.close()
             raise ValueError(f"{cfg.algo} with hyper-parameters {hyper}: {type(e).__name__}: {e}") from e
+    if restored is None and int(common.get("bc_steps", 0)) > 0:
+        if cfg.algo not in ("ppo", "a2c", "maskable-ppo"):
+            venv.close()
+            raise ValueError(f"--hyper bc_steps={common['bc_steps']}: the warm start needs an actor-critic "
+                             f"algorithm (ppo, a2c, maskable-ppo), not {cfg.algo}")  # fmt: skip
+        behaviour_clone(model, venv, cfg, common)
     atomic_write_text(out / "run.yaml", meta)
     keep_rows_up_to(out / "progress.csv", "time/total_timesteps", steps)
     keep_rows_up_to(out / "eval.csv", "timesteps", steps)
@@ -635,6 +650,18 @@ def _train(cfg: TrainConfig, common: dict, hyper: dict, resume: bool, progress: 
         atomic_write(out / "vecnormalize.pkl", lambda f: pickle.dump(venv, f))
     venv.close()
     return model
+
+
+def behaviour_clone(model: BaseAlgorithm, venv: VecEnv, cfg: TrainConfig, common: dict) -> dict[str, float]:
+    """The warm start of ``agents/rl/imitation.py`` before PPO; writes its statistics to ``<out>/bc.yaml``."""
+    scheduler = str(common.get("bc_scheduler", "myopic"))
+    demos = demonstrate(cfg.env_id, cfg.env_kwargs, scheduler, int(common["bc_steps"]), DEMO_SEED0 + 10_000 * cfg.seed)
+    stats = warm_start(model, venv, demos, int(common.get("bc_epochs", 20)), seed=cfg.seed)
+    stats = {"scheduler": scheduler, **stats}
+    atomic_write_text(cfg.out / "bc.yaml", yaml.safe_dump(stats, sort_keys=False))
+    print(f"behaviour cloning from {scheduler}: {stats['steps']} steps, agreement {stats['agreement_train']:.3f} "
+          f"(train) {stats['agreement_heldout']:.3f} (held-out episodes)", file=sys.stderr)  # fmt: skip
+    return stats
 
 
 # ----------------------------------------------------------------------------------------- several training seeds
