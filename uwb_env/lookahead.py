@@ -119,50 +119,52 @@ def expected_posterior(
     table = _plan_table(plans)
     pairs = sensor.pairs.tolist()
     groups = None if delivering is not None else table.pair_groups(pairs)
-    rep = None
     # without shared prefixes: every plan's own covariances; with them, one per group of plans (module docstring)
     Pa = np.repeat(P[None], A, axis=0) if groups is None else P[None]
+    floor, floor_sq = cfg.range_rate_noise_floor_mps > 0.0, cfg.range_rate_noise_floor_mps**2
+    rate_period = sensor.library.range_rate_periods
     for p, (tx, rx) in enumerate(pairs):
         if groups is not None:  # the groups after pair p, each from its parent group before it
-            rep, parent = groups[0][p]
+            parent = groups[0][p][1]
             if parent is not None:
                 Pa = Pa[parent]
         if delivering is None:
-            used, sent, which, every = table.pair_waveforms(tx, rx)
+            sent, rows, used_rows, sent_by_row = table.pair_rows(tx, rx, groups, p)
         else:
             used = delivering[:, :, rx].any(axis=1)
             sent = np.unique(table.waveforms[used, tx])  # the waveforms the plans send: a small set
-            which = np.searchsorted(sent, table.waveforms[used, tx])
-            every = False
-        if not used.any():
+            rows = np.full(A, sent.size, np.int64)  # row of [pd_w; 0] per plan: its waveform's, or the zero row
+            rows[used] = np.searchsorted(sent, table.waveforms[used, tx])
+            used_rows, sent_by_row = used, table.waveforms[:, tx]
+        if sent.size == 0:  # no plan listens with rx
             continue
         names = sensor.measurement_names(rx)
         m = len(names)
         pd_w, R_w = _pair_model(sensor, cfg, tx, rx, x, sent)
-        if cfg.range_rate_noise_floor_mps > 0.0 and "range_rate" in sensor.measurement_names(rx):
-            d = sensor.measurement_names(rx).index("range_rate")
+        if floor and "range_rate" in names:
+            d = names.index("range_rate")
             R_w = R_w.copy()
-            R_w[..., d, d] += cfg.range_rate_noise_floor_mps**2  # as the tracker's filter sees it
-        period = np.full(A, np.inf)  # each plan's range-rate period at this pair (tracking.ambiguity)
-        period[used] = sensor.library.range_rate_periods[table.waveforms[used, tx]]
-        if every:  # plan a sends waveform sent[a]: no scatter
-            pd, R = pd_w, R_w
-        else:
-            pd = np.zeros((A, N))
-            R = np.zeros((A, N, m, m))
-            pd[used] = pd_w[which]
-            R[used] = R_w[which]
-        if delivering is not None:
-            pd = pd * delivering[:, :, rx]
+            R_w[..., d, d] += floor_sq  # as the tracker's filter sees it
         tx_pos, rx_pos = sensor.layout.tx_pos[tx], sensor.layout.rx_pos[rx]
-        rho = np.zeros((A, N))
+        rho_w = None
         if q2 == "pda":  # the clutter map at the predicted measurements, floored like the tracker's
             z_pred, _ = measure(names, x, tx_pos, rx_pos)
             rho_w = np.maximum(sensor.clutter_intensity_at(tx, rx, z_pred, R_w, sent), cfg.min_clutter_intensity)
-            rho[used] = rho_w[which]  # (every: which is the identity)
+        # each updated plan's (group representative's) rows: plan a's waveform's, zeros where rx does not listen
+        if rows is None:  # plan a sends waveform sent[a] and every plan is updated: no gather
+            pd, R, period = pd_w, R_w, rate_period[sent]
+            rho = np.zeros((sent.size, N)) if rho_w is None else rho_w
+        elif used_rows is None:  # every row's plan listens: a gather
+            pd, R, period = pd_w[rows], R_w[rows], rate_period[sent_by_row]
+            rho = np.zeros((rows.size, N)) if rho_w is None else rho_w[rows]
+        else:
+            pd = np.concatenate([pd_w, np.zeros((1, N))])[rows]
+            R = np.concatenate([R_w, np.zeros((1, N, m, m))])[rows]
+            period = np.where(used_rows, rate_period[sent_by_row], np.inf)  # tracking.ambiguity; inf: unused
+            rho = np.zeros((rows.size, N)) if rho_w is None else np.concatenate([rho_w, np.zeros((1, N))])[rows]
+        if delivering is not None:
+            pd = pd * delivering[:, :, rx]
         reduction = reduction_model(q2, m, cfg.gate_probability)
-        if rep is not None:  # the groups' representative plans
-            R, pd, rho, period = R[rep], pd[rep], rho[rep], period[rep]
         Pa = tracker.expected_update(Pa, x, P, names, tx_pos, rx_pos, R, pd, reduction, rho, period)
     return Pa if groups is None or groups[1] is None else Pa[groups[1]]
 
@@ -273,6 +275,7 @@ class _PlanTable:
         self.listening = _listening(plans)
         self._pairs: dict[tuple[int, int], tuple[BoolArray, np.ndarray, np.ndarray, bool]] = {}
         self._groups: dict[tuple, Any] = {}
+        self._rows: dict[tuple, Any] = {}
 
     def pair_groups(self, pairs: list[list[int]]) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray] | None:
         """The plans' shared prefixes along the formed ``pairs`` (in the update order), or None if none is shared.
@@ -307,6 +310,32 @@ class _PlanTable:
             chain = [(identity(r, A), identity(q, sizes[i])) for i, (r, q) in enumerate(chain)]
             self._groups[key] = (chain, identity(group, sizes[-1])) if shared else None
         return self._groups[key]
+
+    def pair_rows(
+        self, tx: int, rx: int, groups: tuple | None, p: int
+    ) -> tuple[np.ndarray, np.ndarray | None, BoolArray | None, np.ndarray]:
+        """Where pair ``p`` = (tx, rx)'s updated plans read their sensor model (``expected_posterior``, cached).
+
+        Returns ``sent (W,)`` (``pair_waveforms``), ``rows (G,)``: each updated plan's row of the pair's model
+        ``(W, ...)`` with row W the zeros of a plan whose receiver does not listen (None: row g is plan g's and
+        every plan is updated), ``used (G,)`` which rows' plans listen (None: all) and ``waveform (G,)`` the
+        waveform each row's plan sends from tx. The updated plans are the groups' representatives after pair p
+        (``pair_groups``, ``groups``) or, with ``groups`` None, every plan. Same numbers as scattering the model
+        over the A plans and gathering the representatives.
+        """
+        key = (tx, rx, p, id(groups))
+        hit = self._rows.get(key)
+        if hit is not None and hit[0] is groups:
+            return hit[1]
+        used, sent, which, every = self.pair_waveforms(tx, rx)
+        rep = None if groups is None else groups[0][p][0]
+        rows = np.full(used.size, sent.size, np.int64)
+        rows[used] = which
+        plans = np.arange(used.size) if rep is None else rep
+        used_rows, rows, wf = used[plans], rows[plans], self.waveforms[plans, tx]
+        out = (sent, None if every and rep is None else rows, None if used_rows.all() else used_rows, wf)
+        self._rows[key] = (groups, out)
+        return out
 
     def pair_waveforms(self, tx: int, rx: int) -> tuple[BoolArray, np.ndarray, np.ndarray, bool]:
         """``(used (A,), sent (W,), which (A_used,), every)`` of pair (tx, rx); every: all plans, sent[a] by plan a."""

@@ -421,6 +421,7 @@ class ParametricSensor:
         self._unit_gain = self._pd_gain[:, None].copy()  # no clutter residue: one node
         self._unit_weight = np.ones(1)
         self._link_cache: dict[tuple[int, ...], tuple] = {}  # mean_link's arguments per (tx, rx, waveforms...)
+        self._covariance_args: dict[tuple[int, ...], tuple] = {}  # expected_covariance's, keyed alike
         self._notch = self._static_clutter_tables()
         self._migration = self._migration_tables()
         self._mti = self._background_mti_table()
@@ -1359,17 +1360,24 @@ class ParametricSensor:
         return derived
 
     def _mean_link(
-        self, tx: int, rx: int, positions: FloatArray, waveforms: IntArray | int, rcs_m2: float, swerling: int
+        self,
+        tx: int,
+        rx: int,
+        positions: FloatArray,
+        waveforms: IntArray | int,
+        rcs_m2: float,
+        swerling: int,
+        link: tuple | None = None,
     ) -> tuple[FloatArray, BoolArray, FloatArray, FloatArray]:
         """Mean-SNR link of pair (tx, rx) at ``positions`` (N, 2) for each of ``waveforms`` (W,).
 
         Returns ``(azimuth (N,), covered (N,), mean SNR (W, N), Pd (W, N))``: the geometry once, the radar
         constant per waveform. One compiled pass (``sensing.compiled.mean_link``, the rules of ``_links``);
         Swerling 0's Marcum Q is evaluated here on the returned SNR. The pair's and the waveforms' arguments are
-        read-only arrays of the sensor, gathered once per (pair, waveforms) (``_link_args``).
+        read-only arrays of the sensor, gathered once per (pair, waveforms) (``_link_args``; ``link``: the caller's).
         """
         pos = np.ascontiguousarray(positions, dtype=float).reshape(-1, 2)
-        pair_args, k, gain, weights = self._link_args(tx, rx, waveforms)
+        pair_args, k, gain, weights = self._link_args(tx, rx, waveforms) if link is None else link
         sens = self.cfg.sensing
         az, ok, snr, pd = mean_link(
             *pair_args[:2],
@@ -1499,16 +1507,25 @@ class ParametricSensor:
         (:meth:`notch_gain`) and after the train's range-migration loss (:meth:`migration_gain`): what makes the PRI
         and the bandwidth choices.
         """
-        waveforms = np.asarray(waveforms, dtype=np.int64).reshape(-1)
-        az, ok, snr, pd = self._mean_link(tx, rx, positions, waveforms, rcs_m2, swerling)
+        waveforms = np.ascontiguousarray(waveforms, dtype=np.int64).reshape(-1)
+        key = (tx, rx, *waveforms.tolist())  # _link_args' key
+        link = self._link_cache.get(key)
+        if link is None:
+            link = self._link_args(tx, rx, waveforms)
+        pos = np.ascontiguousarray(positions, dtype=float).reshape(-1, 2)
+        az, ok, snr, pd = self._mean_link(tx, rx, pos, waveforms, rcs_m2, swerling, link)
         walk = None  # the range-rates (N,) [m/s] with velocities and chirp trains
         if velocities is not None and (self._notch is not None or self._migration is not None or self._mti is not None):
-            pos = np.ascontiguousarray(positions, dtype=float).reshape(-1, 2)
             vel = np.ascontiguousarray(velocities, dtype=float).reshape(-1, 2)
             lay = self.layout
             # l_t + l_r and (d_t / l_t + d_r / l_r) . v, compiled (numpy's operations, the same numbers)
             rng, rdot = bistatic_range_rate(pos, vel, lay.tx_pos[tx], lay.rx_pos[rx])
-            snr = snr * self.notch_gain(waveforms[:, None], tx, rx, rng[None], rdot[None])
+            if self._notch is not None:  # notch_gain's compiled form for one pair (the same numbers; 1 without)
+                cnr_table, step, pri, sigma_f, lam = self._notch
+                eta = self.cfg.sensing.clutter.residue_fraction
+                snr = snr * doppler_notch_gain_at(
+                    cnr_table[:, tx, rx], step, lam, pri, sigma_f, eta, waveforms, rng, rdot
+                )
             if self._mti is not None:  # seed 001's exponential background (through-wall): the echo's residue
                 snr = snr * self.mti_gain(waveforms[:, None], rdot[None])
             snr_pd = snr
@@ -1518,27 +1535,39 @@ class ParametricSensor:
                 snr = snr * walk_gain(waveforms, rdot, self._migration[0], self._WALK_STEP_MPS)  # the peak: R
             pfa = self.cfg.sensing.false_alarm_probability
             # the detector's gain as in _mean_link: detection_gain_db and, with a clutter residue, its quadrature
-            gain, weights = self._link_args(tx, rx, waveforms)[2:]  # (W, J), (J,)
-            scnr = snr_pd[..., None] * gain[:, None, :]  # (W, N, J)
-            pd_j = detection_probability(scnr.reshape(-1), pfa, swerling).reshape(scnr.shape)
-            pd = np.where(ok, windowed_detection_probability(pd_j @ weights, pfa, self._window_cells), 0.0)
+            gain, weights = link[2:]  # (W, J), (J,)
+            if weights.shape[0] == 1 and weights[0] == 1.0:  # one node of weight 1: x @ [1] = x (pd > 0), skipped
+                pd_echo = detection_probability(snr_pd * gain, pfa, swerling)
+            else:
+                scnr = snr_pd[..., None] * gain[:, None, :]  # (W, N, J)
+                pd_echo = detection_probability(scnr.reshape(-1), pfa, swerling).reshape(scnr.shape) @ weights
+            p_noise = self._p_noise  # windowed_detection_probability's noise peak (the same float)
+            if p_noise > 0.0:
+                pd_echo = pd_echo + p_noise - pd_echo * p_noise
+            pd = np.where(ok, pd_echo, 0.0)
         if not self._all_unit_chol:
             R = self._expected_covariance_reference(rx, az, ok, snr, waveforms)
             return pd, self._walk_scaled(R, waveforms, walk)
-        lay = self.layout
-        R = expected_covariance(
-            az,
-            ok,
-            snr,
-            self._snr_cap[waveforms],
-            self._unit_cov_stack[waveforms],
-            bool(self._doa_rx[rx]),
-            float(self._boresight[rx]),
-            float(lay.rx_n_elements[rx]),
-            float(lay.rx_spacing_m[rx]),
-            self._wavelengths[waveforms],
-        )
-        return pd, self._walk_scaled(R, waveforms, walk)
+        cov = self._covariance_args.get(key)
+        if cov is None:
+            lay = self.layout
+            if len(self._covariance_args) > 1024:
+                self._covariance_args.clear()
+            cov = self._covariance_args[key] = (
+                self._snr_cap[waveforms],
+                self._unit_cov_stack[waveforms],
+                bool(self._doa_rx[rx]),
+                float(self._boresight[rx]),
+                float(lay.rx_n_elements[rx]),
+                float(lay.rx_spacing_m[rx]),
+                self._wavelengths[waveforms],
+            )
+        R = expected_covariance(az, ok, snr, *cov)
+        if walk is None or R.shape[-1] < 2:
+            return pd, R
+        # _walk_scaled on R, which is ours (fresh from expected_covariance): scaled in place, no copy
+        gain_w, c_range, c_rate, half_dwell, period = self._migration
+        return pd, walk_scale(R, waveforms, walk, gain_w, c_range, c_rate, half_dwell, period, self._WALK_STEP_MPS)
 
     def _walk_scaled(self, R: FloatArray, waveforms: IntArray, rdot: FloatArray | None) -> FloatArray:
         """``R`` ``(W, N, m, m)`` times the range walk's variance factors on range and range-rate (walk_factors).

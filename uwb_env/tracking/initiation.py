@@ -397,6 +397,39 @@ def _residual_lower_bound(r, v, members, focal, near, far):  # pragma: no cover 
 
 
 @_jit
+def _bound_terms(rs, vs, counts, a, b, c, focal, near, far):  # pragma: no cover - compiled
+    """:func:`_residual_lower_bound`'s terms for the 3-subset of groups (a, b, c), per detection and pair of them.
+
+    Returns the single terms ``(n_a,)``, ``(n_b,)``, ``(n_c,)``, the pair terms ``(n_a, n_b)``, ``(n_a, n_c)``,
+    ``(n_b, n_c)`` (the same functions of the same numbers, so a tuple's bound from them has the same bits) and
+    whether all are finite (then every term is >= 0 and a tuple's bound is >= each term and each sum of two singles:
+    a detection or pair above the threshold rules out every tuple with it).
+    """
+    na, nb, nc = counts[a], counts[b], counts[c]
+    sa, sb, sc = np.empty(na), np.empty(nb), np.empty(nc)
+    for i in range(na):
+        sa[i] = _single_bound(rs[a, i], vs[a, i], near[a], far[a])
+    for j in range(nb):
+        sb[j] = _single_bound(rs[b, j], vs[b, j], near[b], far[b])
+    for h in range(nc):
+        sc[h] = _single_bound(rs[c, h], vs[c, h], near[c], far[c])
+    pab, pac, pbc = np.empty((na, nb)), np.empty((na, nc)), np.empty((nb, nc))
+    for i in range(na):
+        for j in range(nb):
+            pab[i, j] = _pair_bound(rs[a, i], vs[a, i], rs[b, j], vs[b, j], focal[a, b])
+        for h in range(nc):
+            pac[i, h] = _pair_bound(rs[a, i], vs[a, i], rs[c, h], vs[c, h], focal[a, c])
+    for j in range(nb):
+        for h in range(nc):
+            pbc[j, h] = _pair_bound(rs[b, j], vs[b, j], rs[c, h], vs[c, h], focal[b, c])
+    finite = (
+        np.isfinite(sa).all() and np.isfinite(sb).all() and np.isfinite(sc).all()
+        and np.isfinite(pab).all() and np.isfinite(pac).all() and np.isfinite(pbc).all()
+    )  # fmt: skip
+    return sa, sb, sc, pab, pac, pbc, finite
+
+
+@_jit
 def _single_bound(r, v, near, far):  # pragma: no cover - compiled
     """One range's term bound: dist(r, [near, far])^2 / v (:func:`_residual_lower_bound`)."""
     d = near - r if r < near else (r - far if r > far else 0.0)
@@ -535,15 +568,31 @@ def _range_only_candidates(rs, vs, counts, gtx, grx, nu, area, starts, residual_
             for d in range(2):
                 t[q, d], x[q, d] = gtx[members[q], d], grx[members[q], d]
         nc = counts[c] if c >= 0 else 1
+        if nu == 3:  # the bound's terms, once per detection and detection pair (_bound_terms)
+            sa, sb, sc, pab, pac, pbc, finite = _bound_terms(rs, vs, counts, a, b, c, focal, near, far)
+        else:  # nu = 2: no residual test
+            sa = sb = sc = np.zeros(0)
+            pab = pac = pbc = np.zeros((0, 0))
+            finite = False
         for i in range(counts[a]):
+            if nu == 3 and finite and sa[i] > threshold:
+                continue  # every tuple with this detection: its bound >= sa[i] (terms >= 0, finite)
             for j in range(counts[b]):
+                if nu == 3 and finite and (pab[i, j] > threshold or sa[i] + sb[j] > threshold):
+                    continue  # every tuple with these two: its bound >= either
                 for h in range(nc):
                     r[0], v[0] = rs[a, i], vs[a, i]
                     r[1], v[1] = rs[b, j], vs[b, j]
                     if c >= 0:
                         r[2], v[2] = rs[c, h], vs[c, h]
-                    if _residual_lower_bound(r, v, members, focal, near, far) > threshold:
-                        continue  # no point of the area meets the ranges within the residual bound
+                    # nu = 2: no residual test (threshold inf: no bound exceeds it)
+                    if nu == 3:  # _residual_lower_bound from its terms: the same operations, the same bits
+                        bound = sa[i] + sb[j] + sc[h]
+                        bound = max(bound, pab[i, j] + sc[h])
+                        bound = max(bound, pac[i, h] + sb[j])
+                        bound = max(bound, pbc[j, h] + sa[i])
+                        if bound > threshold:
+                            continue  # no point of the area meets the ranges within the residual bound
                     for q in range(nu):
                         w[q] = 1.0 / v[q]
                     px, py, cost, i00, i01, i11 = _best_fit(r, w, t, x, starts, 15)
