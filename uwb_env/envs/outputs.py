@@ -9,6 +9,7 @@ to the bit whether it is summarised alone (``UWBSchedulingEnv``, E = 1) or in a 
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import numba as nb
@@ -185,6 +186,21 @@ def one_env(info: dict[str, np.ndarray], e: int = 0) -> dict[str, Any]:
     return {k: (v[e].copy() if v.ndim > 1 else v[e].item()) for k, v in info.items()}
 
 
+@functools.lru_cache(maxsize=64)
+def _digit_offsets(action_dims: tuple[int, ...]) -> tuple[IntArray, IntArray, IntArray]:
+    """``(D,)`` each action digit's first column in the concatenated one-hots, its stride and its size (cached).
+
+    Digit d of action a is ``a // stride[d] % dims[d]``, stride[d] the product of the later dims (C order).
+    """
+    dims = np.array(action_dims, dtype=np.int64)
+    strides = np.ones_like(dims)
+    strides[:-1] = np.cumprod(dims[::-1])[::-1][1:]
+    offsets = np.concatenate([[0], np.cumsum(dims)[:-1]]).astype(np.int64)
+    for a in (offsets, strides, dims):
+        a.flags.writeable = False
+    return offsets, strides, dims
+
+
 def observations(
     feats: FloatArray,
     previous: IntArray,
@@ -211,8 +227,8 @@ def observations(
         prev[np.flatnonzero(has), previous[has]] = 1.0
     else:
         prev = np.zeros((E, sum(action_dims)))
-        offsets = np.concatenate([[0], np.cumsum(action_dims)[:-1]])
-        digits = np.stack(np.unravel_index(previous[has], action_dims), axis=1)  # (E_has, D)
+        offsets, strides, dims = _digit_offsets(tuple(action_dims))
+        digits = previous[has][:, None] // strides % dims  # (E_has, D): numpy.unravel_index (C order)
         prev[np.flatnonzero(has)[:, None], offsets[None] + digits] = 1.0
     parts = {"tracks": feats, "previous_action": prev, **extra}
     flat = np.concatenate([v.reshape(E, -1) for v in parts.values()], axis=1)

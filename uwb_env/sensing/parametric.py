@@ -55,6 +55,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
+import numba as nb
 import numpy as np
 from scipy.special import roots_genlaguerre
 
@@ -70,6 +71,7 @@ from uwb_env.channel.doppler_notch import (
     clutter_cnr_profile,
     doppler_notch_gain,
     doppler_notch_gain_at,
+    notch_terms,
     train_doppler_spread_hz,
 )
 from uwb_env.channel.radar_equation import bistatic_radar_constant, direct_path_snr, leg_lengths
@@ -313,6 +315,39 @@ def azimuth_variance(
     snr_e = snr_total / n_elements
     k = 2.0 * math.pi * spacing_m * np.cos(off_boresight_rad) / wavelength_m
     return 6.0 / (snr_e * n_elements * (n_elements**2 - 1.0) * k**2)
+
+
+_NO_TABLE, _NO_ROW = np.zeros((1, 1)), np.zeros(1)  # _moving_link's placeholders without notch or walk tables
+
+
+@nb.njit(cache=True, fastmath=False, nogil=True)
+def _moving_link_kernel(
+    tx_xy, rx_xy, pos, vel, wall_a, wall_b, wall_loss, wall_delay, boresight, fov, max_range, baseline, blind_excess,
+    formed, d0, rho, beam_sines, beam_kd, n_elements, k, rcs, gain, weights, pfa, p_noise, w, notch_on, cnr_table,
+    step, wavelength_m, pri_s, sigma_f_hz, walk_on, walk_pd_table, walk_peak_table, walk_step,
+):  # pragma: no cover - compiled  # fmt: skip
+    """``mean_link``, ``bistatic_range_rate``, ``notch_terms`` and ``walk_gain`` (x2) of one pair in one call.
+
+    The same compiled functions on the same arguments as ``ParametricSensor.expected_measurements``' numpy path
+    (so the same numbers); Pd is left to the caller (numpy's exp). Returns ``(azimuth (N,), covered (N,),
+    snr (W, N), range-rate (N,), cnr (W, N), exponent (W, N), walk gain for Pd (W, N), for the peak (W, N))``.
+    """
+    az, ok, snr, _ = mean_link(
+        tx_xy, rx_xy, pos, wall_a, wall_b, wall_loss, wall_delay, boresight, fov, max_range, baseline, blind_excess,
+        formed, d0, rho, beam_sines, beam_kd, n_elements, k, rcs, gain, weights, pfa, 1, p_noise,
+    )  # fmt: skip
+    rng, rdot = bistatic_range_rate(pos, vel, tx_xy, rx_xy)
+    W, N = w.shape[0], pos.shape[0]
+    if notch_on:
+        cnr, arg = notch_terms(cnr_table, step, wavelength_m, pri_s, sigma_f_hz, w, rng, rdot)
+    else:
+        cnr, arg = np.zeros((W, N)), np.zeros((W, N))
+    if walk_on:
+        walk_pd = walk_gain(w, rdot, walk_pd_table, walk_step)
+        walk_peak = walk_gain(w, rdot, walk_peak_table, walk_step)
+    else:
+        walk_pd, walk_peak = np.ones((W, N)), np.ones((W, N))
+    return az, ok, snr, rdot, cnr, arg, walk_pd, walk_peak
 
 
 @register_sensor("parametric", "chirp", "impulse")
@@ -1309,7 +1344,7 @@ class ParametricSensor:
         range_only = slot < 0
         rho = np.empty(rows.shape[0])
         if not self._all_doa:  # pairs without azimuth: the bistatic-range map
-            i = np.flatnonzero(range_only)
+            i = slice(None) if self._az_stack is None else np.flatnonzero(range_only)  # no DOA pair: every row
             b = (np.clip(r[i], -1.0, self._range_edges[-1]) * self._bin_scale).astype(np.int64) + 1
             rho[i] = self._range_table[pair[i], np.minimum(b, self._range_table.shape[1] - 1)]
         if self._az_stack is not None:  # pairs with a DOA receiver: their (range, azimuth) map, one look-up
@@ -1319,9 +1354,13 @@ class ParametricSensor:
             ba = self._azimuth_bins(rows[i, 1 + self._m]) if az_bins is None else az_bins[i]
             rho[i] = self._az_stack[slot[i], np.minimum(br, nr - 1), ba]
         if rdot_var is not None:
-            var = rdot_var + self._rdot_var
-            gauss = np.exp(-0.5 * rows[:, 2] ** 2 / var) / np.sqrt(2.0 * math.pi * var)
-            rho = rho * np.where(np.isfinite(period), folded_uniform_density(rows[:, 2], period, self._rdot_max), gauss)
+            folded = np.isfinite(period)
+            if np.ndim(period) == 0 and folded:  # one folded period: the unfolded Gaussian is not needed
+                rho = rho * folded_uniform_density(rows[:, 2], period, self._rdot_max)
+            else:
+                var = rdot_var + self._rdot_var
+                gauss = np.exp(-0.5 * rows[:, 2] ** 2 / var) / np.sqrt(2.0 * math.pi * var)
+                rho = rho * np.where(folded, folded_uniform_density(rows[:, 2], period, self._rdot_max), gauss)
         if self._fa_scaled:  # false alarms per waveform: x B_w / reference (ClutterConfig.reference_bandwidth_hz)
             rho = rho * self.false_alarm_scale[waveform]
         return rho
@@ -1513,9 +1552,25 @@ class ParametricSensor:
         if link is None:
             link = self._link_args(tx, rx, waveforms)
         pos = np.ascontiguousarray(positions, dtype=float).reshape(-1, 2)
-        az, ok, snr, pd = self._mean_link(tx, rx, pos, waveforms, rcs_m2, swerling, link)
         walk = None  # the range-rates (N,) [m/s] with velocities and chirp trains
-        if velocities is not None and (self._notch is not None or self._migration is not None or self._mti is not None):
+        moving = velocities is not None and (
+            self._notch is not None or self._migration is not None or self._mti is not None
+        )
+        if moving and self._mti is None:  # the link, range-rates, notch terms and walk gains in one compiled call
+            vel = np.ascontiguousarray(velocities, dtype=float).reshape(-1, 2)
+            az, ok, snr, rdot, cnr, arg, walk_pd, walk_peak = self._moving_link(
+                link, pos, vel, waveforms, rcs_m2, tx, rx
+            )
+            if self._notch is not None:  # doppler_notch_gain_at's numpy tail (numpy's exp), the same numbers
+                eta = self.cfg.sensing.clutter.residue_fraction
+                snr = snr * (1.0 / (1.0 + eta * cnr * np.exp(arg)))
+            snr_pd = snr
+            if self._migration is not None:
+                walk = rdot
+                snr_pd = snr * walk_pd  # detection
+                snr = snr * walk_peak  # the peak: R
+        elif moving:
+            az, ok, snr, pd = self._mean_link(tx, rx, pos, waveforms, rcs_m2, swerling, link)
             vel = np.ascontiguousarray(velocities, dtype=float).reshape(-1, 2)
             lay = self.layout
             # l_t + l_r and (d_t / l_t + d_r / l_r) . v, compiled (numpy's operations, the same numbers)
@@ -1526,13 +1581,16 @@ class ParametricSensor:
                 snr = snr * doppler_notch_gain_at(
                     cnr_table[:, tx, rx], step, lam, pri, sigma_f, eta, waveforms, rng, rdot
                 )
-            if self._mti is not None:  # seed 001's exponential background (through-wall): the echo's residue
-                snr = snr * self.mti_gain(waveforms[:, None], rdot[None])
+            # seed 001's exponential background (through-wall): the echo's residue
+            snr = snr * self.mti_gain(waveforms[:, None], rdot[None])
             snr_pd = snr
             if self._migration is not None:  # compiled: every scan asks for it, per pair (sensing.compiled)
                 walk = rdot
                 snr_pd = snr * walk_gain(waveforms, rdot, self._migration_pd, self._WALK_STEP_MPS)  # detection
                 snr = snr * walk_gain(waveforms, rdot, self._migration[0], self._WALK_STEP_MPS)  # the peak: R
+        else:
+            az, ok, snr, pd = self._mean_link(tx, rx, pos, waveforms, rcs_m2, swerling, link)
+        if moving:
             pfa = self.cfg.sensing.false_alarm_probability
             # the detector's gain as in _mean_link: detection_gain_db and, with a clutter residue, its quadrature
             gain, weights = link[2:]  # (W, J), (J,)
@@ -1568,6 +1626,31 @@ class ParametricSensor:
         # _walk_scaled on R, which is ours (fresh from expected_covariance): scaled in place, no copy
         gain_w, c_range, c_rate, half_dwell, period = self._migration
         return pd, walk_scale(R, waveforms, walk, gain_w, c_range, c_rate, half_dwell, period, self._WALK_STEP_MPS)
+
+    def _moving_link(
+        self, link: tuple, pos: FloatArray, vel: FloatArray, waveforms: IntArray, rcs_m2: float, tx: int, rx: int
+    ) -> tuple[FloatArray, ...]:
+        """``expected_measurements``' compiled part for targets at ``pos`` moving at ``vel`` (N, 2), one call.
+
+        Returns the link ``(azimuth (N,), covered (N,), mean SNR (W, N))`` (``_mean_link``), the range-rates
+        ``(N,)`` [m/s], the notch's CNR and exponent ``(W, N)`` (``doppler_notch.notch_terms``; zeros without static
+        clutter) and the walk gains for detection and for the peak ``(W, N)`` (``walk_gain``; ones without chirp
+        trains): the kernels the numpy path calls one by one, with the same arguments (:func:`_moving_link_kernel`).
+        """
+        pair_args, k, gain, weights = link
+        if self._notch is not None:
+            cnr_table, step, pri, sigma_f, lam = self._notch
+            notch = (True, cnr_table[:, tx, rx], float(step), lam, pri, sigma_f)
+        else:
+            notch = (False, _NO_TABLE, 1.0, _NO_ROW, _NO_ROW, _NO_ROW)
+        walk = (
+            (False, _NO_TABLE, _NO_TABLE) if self._migration is None else (True, self._migration_pd, self._migration[0])
+        )
+        az, ok, snr, rdot, cnr, arg, walk_pd, walk_peak = _moving_link_kernel(
+            *pair_args[:2], pos, vel, *pair_args[2:], k, float(rcs_m2), gain, weights,
+            self.cfg.sensing.false_alarm_probability, self._p_noise, waveforms, *notch, *walk, self._WALK_STEP_MPS,
+        )  # fmt: skip
+        return az, ok, snr, rdot, cnr, arg, walk_pd, walk_peak
 
     def _walk_scaled(self, R: FloatArray, waveforms: IntArray, rdot: FloatArray | None) -> FloatArray:
         """``R`` ``(W, N, m, m)`` times the range walk's variance factors on range and range-rate (walk_factors).

@@ -36,6 +36,7 @@ import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
+import numba as nb
 import numpy as np
 from scipy.stats import chi2
 
@@ -61,6 +62,7 @@ from uwb_env.tracking.trackset import Prediction, TrackSet
 from uwb_env.typing import BoolArray, FloatArray, IntArray
 
 PdModel = Callable[[int, int, FloatArray], FloatArray]
+_DETECTION_FIELDS = tuple(f.name for f in dataclasses.fields(Detections))
 ZERO_ACCELERATION_STD = 0.01
 _PV = np.array([0, 2, 1, 3])  # state indices of (x, y, vx, vy)
 """Acceleration std [m/s^2] kept by models without acceleration (NCV, CT) so covariances stay positive definite."""
@@ -95,14 +97,37 @@ def confirm_and_keep(
     ``x (N, 6)``, ``P (N, 6, 6)`` the combined estimates; ``area`` ``[x_min, x_max, y_min, y_max]``. Elementwise,
     so the tracks of several trackers of one configuration may be concatenated (``tracking.batch``).
     """
-    confirmed = confirmed | (existence >= cfg.confirm_existence)
-    lost = P[:, 0, 0] + P[:, 2, 2] > 2.0 * cfg.max_position_std_m**2  # position-covariance trace
-    stale = ~confirmed & (age >= cfg.tentative_max_age)  # confirmation time-out
     x0, x1, y0, y1 = area
     width, height = x1 - x0, y1 - y0
-    gone = (np.abs(x[:, 0] - (x0 + x1) / 2) > 1.5 * width) | (np.abs(x[:, 2] - (y0 + y1) / 2) > 1.5 * height)
-    gone |= x[:, 1] ** 2 + x[:, 3] ** 2 > (10.0 * cfg.max_speed_mps) ** 2  # no target is that fast
-    return confirmed, (existence >= cfg.terminate_existence) & ~lost & ~stale & ~gone
+    return _confirm_and_keep(
+        existence, confirmed, age, x, P, cfg.confirm_existence, cfg.terminate_existence,
+        2.0 * cfg.max_position_std_m**2, cfg.tentative_max_age, (x0 + x1) / 2, (y0 + y1) / 2, 1.5 * width,
+        1.5 * height, (10.0 * cfg.max_speed_mps) ** 2,
+    )  # fmt: skip
+
+
+@nb.njit(cache=True, fastmath=False, nogil=True)
+def _confirm_and_keep(
+    existence, confirmed, age, x, P, confirm_at, terminate_at, max_trace, max_age, cx, cy, half_x, half_y, max_speed_sq
+):  # pragma: no cover - compiled
+    """:func:`confirm_and_keep` per track, compiled: the same comparisons of the same numbers.
+
+    Confirmed: already, or existence >= ``confirm_at``. Kept: existence >= ``terminate_at``, position-covariance
+    trace <= ``max_trace`` [m^2], not tentative at age >= ``max_age``, within ``half_x``, ``half_y`` [m] of the
+    area's centre (cx, cy) and slower than sqrt(``max_speed_sq``) (no target is that fast).
+    """
+    n = existence.shape[0]
+    now = np.empty(n, np.bool_)
+    keep = np.empty(n, np.bool_)
+    for i in range(n):
+        c = confirmed[i] or existence[i] >= confirm_at
+        lost = P[i, 0, 0] + P[i, 2, 2] > max_trace  # position-covariance trace
+        stale = not c and age[i] >= max_age  # confirmation time-out
+        gone = abs(x[i, 0] - cx) > half_x or abs(x[i, 2] - cy) > half_y
+        gone = gone or x[i, 1] * x[i, 1] + x[i, 3] * x[i, 3] > max_speed_sq
+        now[i] = c
+        keep[i] = existence[i] >= terminate_at and not lost and not stale and not gone
+    return now, keep
 
 
 @dataclass(slots=True)
@@ -266,7 +291,13 @@ class Tracker(GaussianLookahead):
         d = det.measurement_names.index("range_rate")
         R = det.R.copy()
         R[:, d, d] += floor**2
-        return dataclasses.replace(det, R=R)
+        if type(det) is not Detections:
+            return dataclasses.replace(det, R=R)
+        out = object.__new__(Detections)  # dataclasses.replace(det, R=R) without its field introspection
+        for name in _DETECTION_FIELDS:
+            setattr(out, name, getattr(det, name))
+        out.R = R
+        return out
 
     def _predict(self, dt: float, scan_index: int) -> None:
         t = self.tracks
