@@ -123,24 +123,31 @@ def expected_posterior(
     Pa = np.repeat(P[None], A, axis=0) if groups is None else P[None]
     floor, floor_sq = cfg.range_rate_noise_floor_mps > 0.0, cfg.range_rate_noise_floor_mps**2
     rate_period = sensor.library.range_rate_periods
+    steps = []  # per pair: (sent, rows, used_rows, sent_by_row) of its updated plans
     for p, (tx, rx) in enumerate(pairs):
-        if groups is not None:  # the groups after pair p, each from its parent group before it
-            parent = groups[0][p][1]
-            if parent is not None:
-                Pa = Pa[parent]
         if delivering is None:
-            sent, rows, used_rows, sent_by_row = table.pair_rows(tx, rx, groups, p)
+            steps.append(table.pair_rows(tx, rx, groups, p))
         else:
             used = delivering[:, :, rx].any(axis=1)
             sent = np.unique(table.waveforms[used, tx])  # the waveforms the plans send: a small set
             rows = np.full(A, sent.size, np.int64)  # row of [pd_w; 0] per plan: its waveform's, or the zero row
             rows[used] = np.searchsorted(sent, table.waveforms[used, tx])
-            used_rows, sent_by_row = used, table.waveforms[:, tx]
+            steps.append((sent, rows, used, table.waveforms[:, tx]))
+    # the sensor model of every pair that some plan uses (it does not depend on the covariances)
+    using = [p for p, step in enumerate(steps) if step[0].size]
+    found = _pair_models(sensor, cfg, [pairs[p] for p in using], x, [steps[p][0] for p in using])
+    models = dict(zip(using, found, strict=True))
+    for p, (tx, rx) in enumerate(pairs):
+        if groups is not None:  # the groups after pair p, each from its parent group before it
+            parent = groups[0][p][1]
+            if parent is not None:
+                Pa = Pa[parent]
+        sent, rows, used_rows, sent_by_row = steps[p]
         if sent.size == 0:  # no plan listens with rx
             continue
         names = sensor.measurement_names(rx)
         m = len(names)
-        pd_w, R_w = _pair_model(sensor, cfg, tx, rx, x, sent)
+        pd_w, R_w = models[p]
         if floor and "range_rate" in names:
             d = names.index("range_rate")
             R_w = R_w.copy()
@@ -212,6 +219,18 @@ def _pair_model(sensor: ParametricSensor, cfg, tx: int, rx: int, x: FloatArray, 
         tx, rx, x[:, 0:3:2], sent, cfg.assumed_rcs_m2, cfg.assumed_swerling, velocities=x[:, 1:4:2]
     )
     return np.minimum(pd, cfg.max_detection_probability), R
+
+
+def _pair_models(sensor: ParametricSensor, cfg, pairs: list, x: FloatArray, sents: list) -> list[tuple]:
+    """``_pair_model`` of each pair ``(tx, rx)`` for its waveforms ``sents[p]``: ``[(Pd (W_p, N), R)]``.
+
+    In one call where the sensor model has it (``ParametricSensor.expected_measurements_pairs``: the same numbers).
+    """
+    batched = getattr(sensor, "expected_measurements_pairs", None)
+    if batched is None:
+        return [_pair_model(sensor, cfg, tx, rx, x, sent) for (tx, rx), sent in zip(pairs, sents, strict=True)]
+    out = batched(pairs, x[:, 0:3:2], sents, cfg.assumed_rcs_m2, cfg.assumed_swerling, velocities=x[:, 1:4:2])
+    return [(np.minimum(pd, cfg.max_detection_probability), R) for pd, R in out]
 
 
 def detection_probabilities(

@@ -1606,6 +1606,81 @@ class ParametricSensor:
         if not self._all_unit_chol:
             R = self._expected_covariance_reference(rx, az, ok, snr, waveforms)
             return pd, self._walk_scaled(R, waveforms, walk)
+        R = expected_covariance(az, ok, snr, *self._covariance_arguments(key, rx, waveforms))
+        if walk is None or R.shape[-1] < 2:
+            return pd, R
+        # _walk_scaled on R, which is ours (fresh from expected_covariance): scaled in place, no copy
+        gain_w, c_range, c_rate, half_dwell, period = self._migration
+        return pd, walk_scale(R, waveforms, walk, gain_w, c_range, c_rate, half_dwell, period, self._WALK_STEP_MPS)
+
+    def expected_measurements_pairs(
+        self,
+        pairs: list[tuple[int, int]],
+        positions: FloatArray,
+        waveforms: list[IntArray],
+        rcs_m2: float = 1.0,
+        swerling: int = 1,
+        velocities: FloatArray | None = None,
+    ) -> list[tuple[FloatArray, FloatArray]]:
+        """:meth:`expected_measurements` of each pair ``pairs[p]`` = (tx, rx) for its ``waveforms[p]`` ``(W_p,)``.
+
+        Returns ``[(Pd (W_p, N), R (W_p, N, m, m))]``. With velocities (notch or chirp trains, no MTI, the CRLB
+        models, one detector node): each pair's compiled link (:meth:`_moving_link`), then the numpy part of Pd
+        (notch, walk, Swerling, noise window) once over the pairs' rows stacked, elementwise: the same numbers as
+        pair by pair. Otherwise pair by pair.
+        """
+        fast = (
+            velocities is not None
+            and self._mti is None
+            and (self._notch is not None or self._migration is not None)
+            and self._all_unit_chol
+            and len(pairs) > 1
+        )
+        links = []
+        for (tx, rx), w in zip(pairs, waveforms, strict=True):
+            w = np.ascontiguousarray(w, dtype=np.int64).reshape(-1)
+            key = (tx, rx, *w.tolist())  # _link_args' key
+            link = self._link_cache.get(key)
+            if link is None:
+                link = self._link_args(tx, rx, w)
+            fast = fast and link[3].shape[0] == 1 and link[3][0] == 1.0  # one node of weight 1 (x @ [1] = x)
+            links.append((tx, rx, w, key, link))
+        if not fast:
+            return [
+                self.expected_measurements(tx, rx, positions, w, rcs_m2, swerling, velocities)
+                for tx, rx, w, _, _ in links
+            ]
+        pos = np.ascontiguousarray(positions, dtype=float).reshape(-1, 2)
+        vel = np.ascontiguousarray(velocities, dtype=float).reshape(-1, 2)
+        parts = [self._moving_link(link, pos, vel, w, rcs_m2, tx, rx) for tx, rx, w, _, link in links]
+        snr = np.concatenate([q[2] for q in parts])  # (sum W_p, N)
+        if self._notch is not None:  # doppler_notch_gain_at's numpy tail
+            eta = self.cfg.sensing.clutter.residue_fraction
+            cnr, arg = np.concatenate([q[4] for q in parts]), np.concatenate([q[5] for q in parts])
+            snr = snr * (1.0 / (1.0 + eta * cnr * np.exp(arg)))
+        snr_pd = snr
+        if self._migration is not None:
+            snr_pd = snr * np.concatenate([q[6] for q in parts])  # detection
+            snr = snr * np.concatenate([q[7] for q in parts])  # the peak: R
+        gain = np.concatenate([link[2] for *_, link in links])  # (sum W_p, 1)
+        pd_echo = detection_probability(snr_pd * gain, self.cfg.sensing.false_alarm_probability, swerling)
+        p_noise = self._p_noise
+        if p_noise > 0.0:
+            pd_echo = pd_echo + p_noise - pd_echo * p_noise
+        out, lo = [], 0
+        for (_, rx, w, key, _), q in zip(links, parts, strict=True):
+            hi = lo + w.size
+            pd = np.where(q[1], pd_echo[lo:hi], 0.0)  # covered (N,)
+            R = expected_covariance(q[0], q[1], snr[lo:hi], *self._covariance_arguments(key, rx, w))
+            if self._migration is not None and R.shape[-1] >= 2:  # _walk_scaled on our fresh R, in place
+                gain_w, c_range, c_rate, half_dwell, period = self._migration
+                R = walk_scale(R, w, q[3], gain_w, c_range, c_rate, half_dwell, period, self._WALK_STEP_MPS)
+            out.append((pd, R))
+            lo = hi
+        return out
+
+    def _covariance_arguments(self, key: tuple, rx: int, waveforms: IntArray) -> tuple:
+        """``expected_covariance``'s arguments after the link for receiver ``rx`` and ``waveforms`` (cached by key)."""
         cov = self._covariance_args.get(key)
         if cov is None:
             lay = self.layout
@@ -1620,12 +1695,7 @@ class ParametricSensor:
                 float(lay.rx_spacing_m[rx]),
                 self._wavelengths[waveforms],
             )
-        R = expected_covariance(az, ok, snr, *cov)
-        if walk is None or R.shape[-1] < 2:
-            return pd, R
-        # _walk_scaled on R, which is ours (fresh from expected_covariance): scaled in place, no copy
-        gain_w, c_range, c_rate, half_dwell, period = self._migration
-        return pd, walk_scale(R, waveforms, walk, gain_w, c_range, c_rate, half_dwell, period, self._WALK_STEP_MPS)
+        return cov
 
     def _moving_link(
         self, link: tuple, pos: FloatArray, vel: FloatArray, waveforms: IntArray, rcs_m2: float, tx: int, rx: int
