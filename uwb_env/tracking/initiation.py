@@ -224,6 +224,32 @@ def _tuple_bounds(cap: int) -> tuple[IntArray, float]:
     return per_rx, float(chi2.ppf(0.99, 1))
 
 
+_GROUP_NODES: dict[tuple, tuple] = {}
+
+
+def _group_nodes(
+    groups: tuple[tuple[int, int, tuple[str, ...]], ...], tx_pos: FloatArray, rx_pos: FloatArray
+) -> tuple[FloatArray, FloatArray, IntArray]:
+    """The pair-groups' transmitter and receiver positions ``(G, 2)`` and range-rate columns ``(G,)`` (cached).
+
+    ``groups``: each group's ``(tx, rx, measurement names)``; cached per groups and node arrays (by identity; the
+    arrays are a tracker's layout, never written). The returned arrays are shared: not to be written.
+    """
+    key = (groups, id(tx_pos), id(rx_pos))
+    hit = _GROUP_NODES.get(key)
+    if hit is not None and hit[0] is tx_pos and hit[1] is rx_pos:
+        return hit[2]
+    out = (
+        tx_pos[[t for t, _, _ in groups]].reshape(-1, 2),
+        rx_pos[[r for _, r, _ in groups]].reshape(-1, 2),
+        np.array([_rate_column(names) for _, _, names in groups], np.int64),
+    )
+    if len(_GROUP_NODES) > 256:
+        _GROUP_NODES.clear()
+    _GROUP_NODES[key] = (tx_pos, rx_pos, out)
+    return out
+
+
 def initiate_compiled(
     groups: Sequence[Sequence[tuple[Detections, BoolArray]]],
     extra: Sequence[tuple[FloatArray, FloatArray] | None],
@@ -277,6 +303,7 @@ def initiate_compiled(
     else:
         prev_p, prev_cov = np.concatenate([c.p for c in previous]), np.concatenate([c.cov for c in previous])
     per_rx, residual_max = _tuple_bounds(cfg.init_max_candidates)
+    group_tx, group_rx, group_rr = _group_nodes(tuple((d.tx, d.rx, d.measurement_names) for d in dets), tx_pos, rx_pos)
     c = np.ascontiguousarray
     out = range_only_initiation(
         c(z, dtype=float),
@@ -284,10 +311,10 @@ def initiate_compiled(
         c(snr, dtype=float),
         c(free, dtype=bool),
         offsets([len(d) for d in dets]),
-        tx_pos[[d.tx for d in dets]].reshape(-1, 2),
-        rx_pos[[d.rx for d in dets]].reshape(-1, 2),
+        group_tx,
+        group_rx,
         offsets([len(g) for g in groups]),
-        np.array([_rate_column(d.measurement_names) for d in dets], np.int64),
+        group_rr,
         cfg.init_max_candidates,
         (2.0 * cfg.max_speed_mps) ** 2,
         per_rx,
