@@ -350,6 +350,66 @@ def _moving_link_kernel(
     return az, ok, snr, rdot, cnr, arg, walk_pd, walk_peak
 
 
+@nb.njit(cache=True, fastmath=False, nogil=True)
+def _moving_links_kernel(
+    txy, rxy, pos, vel, wall_a, wall_b, wall_loss, wall_delay, boresight, fov, max_range, baseline, blind_excess,
+    formed, d0, rho, sines, n_sines, kd, n_el, k, rcs, gain, weights, pfa, p_noise, w, starts, notch_on, cnr_tables,
+    step, wavelength_m, pri_s, sigma_f_hz, walk_on, walk_pd_table, walk_peak_table, walk_step,
+):  # pragma: no cover - compiled  # fmt: skip
+    """:func:`_moving_link_kernel` of P pairs in one call: pair p's waveforms are rows ``starts[p]:starts[p + 1]``.
+
+    Per pair ``txy``, ``rxy`` ``(P, 2)``, boresight, fov, baseline ``(P,)``, formed ``(P,)``, beams ``sines (P, M)``
+    (the first ``n_sines[p]``), ``kd``, ``n_el`` ``(P,)``, ``cnr_tables`` ``(P, W_lib, G)``; per row k, gain, w. The
+    same functions on the same numbers as pair by pair. Returns ``az, ok, rdot (P, N)`` and ``snr, cnr, exponent,
+    walk gains (S, N)``.
+    """
+    P, N, S = txy.shape[0], pos.shape[0], w.shape[0]
+    az, ok, rdot = np.empty((P, N)), np.empty((P, N), np.bool_), np.empty((P, N))
+    snr, cnr, arg = np.empty((S, N)), np.zeros((S, N)), np.zeros((S, N))
+    walk_pd, walk_peak = np.ones((S, N)), np.ones((S, N))
+    for p in range(P):
+        lo, hi = starts[p], starts[p + 1]
+        az_p, ok_p, snr_p, _ = mean_link(
+            txy[p], rxy[p], pos, wall_a, wall_b, wall_loss, wall_delay, boresight[p], fov[p], max_range, baseline[p],
+            blind_excess, formed[p], d0, rho, sines[p, : n_sines[p]], kd[p], n_el[p], k[lo:hi], rcs, gain[lo:hi],
+            weights, pfa, 1, p_noise,
+        )  # fmt: skip
+        rng_p, rdot_p = bistatic_range_rate(pos, vel, txy[p], rxy[p])
+        az[p], ok[p], rdot[p], snr[lo:hi] = az_p, ok_p, rdot_p, snr_p
+        if notch_on:
+            cnr_p, arg_p = notch_terms(cnr_tables[p], step, wavelength_m, pri_s, sigma_f_hz, w[lo:hi], rng_p, rdot_p)
+            cnr[lo:hi], arg[lo:hi] = cnr_p, arg_p
+        if walk_on:
+            walk_pd[lo:hi] = walk_gain(w[lo:hi], rdot_p, walk_pd_table, walk_step)
+            walk_peak[lo:hi] = walk_gain(w[lo:hi], rdot_p, walk_peak_table, walk_step)
+    return az, ok, rdot, snr, cnr, arg, walk_pd, walk_peak
+
+
+@nb.njit(cache=True, fastmath=False, nogil=True)
+def _expected_covariances_kernel(
+    az, ok, snr, starts, snr_cap, unit_cov, doa, boresight, n_elements, spacing, wavelengths, w, rdot, walk_on,
+    gain, c_range, c_rate, half_dwell, period, walk_step,
+):  # pragma: no cover - compiled  # fmt: skip
+    """``expected_covariance`` then ``walk_scale`` of P pairs (rows ``starts[p]:starts[p + 1]``), ``(S, N, m, m)``.
+
+    The same functions on the same numbers as pair by pair; every pair with one measurement dimension m
+    (``doa`` all equal).
+    """
+    S, N = snr.shape
+    m = unit_cov.shape[1] + (1 if doa[0] else 0)
+    R = np.empty((S, N, m, m))
+    for p in range(starts.shape[0] - 1):
+        lo, hi = starts[p], starts[p + 1]
+        R_p = expected_covariance(
+            az[p], ok[p], snr[lo:hi], snr_cap[lo:hi], unit_cov[lo:hi], doa[p], boresight[p], n_elements[p], spacing[p],
+            wavelengths[lo:hi],
+        )  # fmt: skip
+        if walk_on and m >= 2:
+            R_p = walk_scale(R_p, w[lo:hi], rdot[p], gain, c_range, c_rate, half_dwell, period, walk_step)
+        R[lo:hi] = R_p
+    return R
+
+
 @register_sensor("parametric", "chirp", "impulse")
 class ParametricSensor:
     """Turns truth and a scan plan into per-pair :class:`Detections` (component tier: config + kernels)."""
@@ -457,6 +517,7 @@ class ParametricSensor:
         self._unit_weight = np.ones(1)
         self._link_cache: dict[tuple[int, ...], tuple] = {}  # mean_link's arguments per (tx, rx, waveforms...)
         self._covariance_args: dict[tuple[int, ...], tuple] = {}  # expected_covariance's, keyed alike
+        self._pack_cache: dict[tuple, tuple] = {}  # the multi-pair kernels' arguments per pairs' keys
         self._notch = self._static_clutter_tables()
         self._migration = self._migration_tables()
         self._mti = self._background_mti_table()
@@ -1652,31 +1713,113 @@ class ParametricSensor:
             ]
         pos = np.ascontiguousarray(positions, dtype=float).reshape(-1, 2)
         vel = np.ascontiguousarray(velocities, dtype=float).reshape(-1, 2)
-        parts = [self._moving_link(link, pos, vel, w, rcs_m2, tx, rx) for tx, rx, w, _, link in links]
-        snr = np.concatenate([q[2] for q in parts])  # (sum W_p, N)
+        pack = self._pairs_pack(links)
+        if pack is None:  # receivers of different measurement dimensions: pair by pair
+            return [
+                self.expected_measurements(tx, rx, positions, w, rcs_m2, swerling, velocities)
+                for tx, rx, w, _, _ in links
+            ]
+        link_args, cov_args, starts = pack
+        az, ok, rdot, snr, cnr, arg, walk_pd, walk_peak = _moving_links_kernel(
+            *link_args[:2], pos, vel, *link_args[2:19], float(rcs_m2), *link_args[19:]
+        )
         if self._notch is not None:  # doppler_notch_gain_at's numpy tail
             eta = self.cfg.sensing.clutter.residue_fraction
-            cnr, arg = np.concatenate([q[4] for q in parts]), np.concatenate([q[5] for q in parts])
             snr = snr * (1.0 / (1.0 + eta * cnr * np.exp(arg)))
         snr_pd = snr
         if self._migration is not None:
-            snr_pd = snr * np.concatenate([q[6] for q in parts])  # detection
-            snr = snr * np.concatenate([q[7] for q in parts])  # the peak: R
-        gain = np.concatenate([link[2] for *_, link in links])  # (sum W_p, 1)
-        pd_echo = detection_probability(snr_pd * gain, self.cfg.sensing.false_alarm_probability, swerling)
+            snr_pd = snr * walk_pd  # detection
+            snr = snr * walk_peak  # the peak: R
+        pd_echo = detection_probability(snr_pd * link_args[19], self.cfg.sensing.false_alarm_probability, swerling)
         p_noise = self._p_noise
         if p_noise > 0.0:
             pd_echo = pd_echo + p_noise - pd_echo * p_noise
-        out, lo = [], 0
-        for (_, rx, w, key, _), q in zip(links, parts, strict=True):
-            hi = lo + w.size
-            pd = np.where(q[1], pd_echo[lo:hi], 0.0)  # covered (N,)
-            R = expected_covariance(q[0], q[1], snr[lo:hi], *self._covariance_arguments(key, rx, w))
-            if self._migration is not None and R.shape[-1] >= 2:  # _walk_scaled on our fresh R, in place
-                gain_w, c_range, c_rate, half_dwell, period = self._migration
-                R = walk_scale(R, w, q[3], gain_w, c_range, c_rate, half_dwell, period, self._WALK_STEP_MPS)
-            out.append((pd, R))
-            lo = hi
+        R = _expected_covariances_kernel(az, ok, snr, starts, *cov_args, rdot, *self._walk_args())
+        return [
+            (np.where(ok[p], pd_echo[starts[p] : starts[p + 1]], 0.0), R[starts[p] : starts[p + 1]])
+            for p in range(len(links))
+        ]
+
+    def _walk_args(self) -> tuple:
+        """``walk_scale``'s tables after R: (on, gain, c_range, c_rate, half_dwell, period, step)."""
+        if self._migration is None:
+            return (False, _NO_TABLE, _NO_TABLE, _NO_TABLE, _NO_ROW, _NO_ROW, self._WALK_STEP_MPS)
+        return (True, *self._migration, self._WALK_STEP_MPS)
+
+    def _pairs_pack(self, links: list[tuple]) -> tuple | None:
+        """The multi-pair kernels' arguments for ``links`` ``[(tx, rx, w, key, link)]`` (cached by their keys).
+
+        Returns ``(link arguments, covariance arguments, row starts (P + 1,))``, or None when the receivers' measurement
+        dimensions differ. The per-pair values are those of ``_link_args`` and ``_covariance_arguments``, stacked.
+        """
+        key = tuple(k for _, _, _, k, _ in links)
+        hit = self._pack_cache.get(key)
+        if hit is not None:
+            return hit
+        doa = np.array([bool(self._doa_rx[rx]) for _, rx, _, _, _ in links])
+        if doa.any() and not doa.all():
+            return None
+        pairs = [link[0] for *_, link in links]
+        sizes = [w.size for _, _, w, _, _ in links]
+        starts = np.zeros(len(links) + 1, np.int64)
+        starts[1:] = np.cumsum(sizes)
+        n_sines = np.array([p[14].size for p in pairs], np.int64)
+        sines = np.zeros((len(pairs), max(1, int(n_sines.max()))))
+        for i, p in enumerate(pairs):
+            sines[i, : p[14].size] = p[14]
+        first = pairs[0]
+        if self._notch is not None:
+            cnr_table, step, pri, sigma_f, lam = self._notch
+            cnr = np.ascontiguousarray(np.stack([cnr_table[:, tx, rx] for tx, rx, *_ in links]))
+            notch = (True, cnr, float(step), lam, pri, sigma_f)
+        else:
+            notch = (False, np.zeros((1, 1, 1)), 1.0, _NO_ROW, _NO_ROW, _NO_ROW)
+        walk = (
+            (False, _NO_TABLE, _NO_TABLE) if self._migration is None else (True, self._migration_pd, self._migration[0])
+        )
+        w_all = np.concatenate([w for _, _, w, _, _ in links])
+        link_args = (
+            np.array([p[0] for p in pairs], dtype=float),  # tx (P, 2)
+            np.array([p[1] for p in pairs], dtype=float),  # rx (P, 2)
+            *first[2:6],  # the walls (shared)
+            np.array([p[6] for p in pairs], dtype=float),  # boresight
+            np.array([p[7] for p in pairs], dtype=float),  # fov
+            first[8],  # max range
+            np.array([p[9] for p in pairs], dtype=float),  # baseline
+            first[10],  # blind-zone excess
+            np.array([p[11] for p in pairs], dtype=np.bool_),  # formed
+            first[12],  # d0
+            first[13],  # path-loss exponent
+            sines,
+            n_sines,
+            np.array([p[15] for p in pairs], dtype=float),  # 2 pi d / lambda
+            np.array([p[16] for p in pairs], dtype=np.int64),  # L
+            np.concatenate([link[1] for *_, link in links]),  # k (S,)
+            # rcs goes here (the caller's)
+            np.concatenate([link[2] for *_, link in links]),  # gain (S, J)
+            links[0][4][3],  # weights (J,) (one node of weight 1: the caller checked)
+            self.cfg.sensing.false_alarm_probability,
+            self._p_noise,
+            w_all,
+            starts,
+            *notch,
+            *walk,
+            self._WALK_STEP_MPS,
+        )
+        covs = [self._covariance_arguments(k, rx, w) for _, rx, w, k, _ in links]
+        cov_args = (
+            np.concatenate([c[0] for c in covs]),  # snr caps (S,)
+            np.concatenate([c[1] for c in covs]),  # unit covariances (S, m0, m0)
+            doa,
+            np.array([c[3] for c in covs], dtype=float),  # boresight (nan -> 0)
+            np.array([c[4] for c in covs], dtype=float),  # L
+            np.array([c[5] for c in covs], dtype=float),  # spacing
+            np.concatenate([c[6] for c in covs]),  # wavelengths (S,)
+            w_all,
+        )
+        if len(self._pack_cache) > 256:
+            self._pack_cache.clear()
+        out = self._pack_cache[key] = (link_args, cov_args, starts)
         return out
 
     def _covariance_arguments(self, key: tuple, rx: int, waveforms: IntArray) -> tuple:
