@@ -34,6 +34,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import torch as th
+from sb3_contrib.common.maskable.policies import MaskableActorCriticPolicy
 from scipy.signal import lfilter
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
@@ -148,7 +149,7 @@ def warm_start(
         obs = venv.normalize_obs(obs)
         rewards = venv.normalize_reward(rewards).astype(float)
     returns = episode_returns(rewards, demos.episode, gamma)
-    maskable = "action_masks" in policy.evaluate_actions.__code__.co_varnames
+    maskable = isinstance(policy, MaskableActorCriticPolicy)
 
     rng = np.random.default_rng(seed)
     held = rng.permutation(demos.n_episodes)[: max(1, demos.n_episodes // 10)] if demos.n_episodes > 1 else []
