@@ -797,7 +797,10 @@ class SignalConfig:
     ``clutter_map_cell_m`` over the surveillance area, the position detections per scan exponentially averaged with
     a memory of ``clutter_map_memory_scans`` scans, over the cell's area, floored at
     ``false_position_density_per_m2``; read before the scan's own detections update it, empty at every episode
-    (off: the constant ``false_position_density_per_m2``).
+    (off: the constant ``false_position_density_per_m2``). ``clutter_map_count``: what a detection adds to its cell,
+    1 (``"all"``), 1 for a couple that has not moved (``"still"``, network ``"couples"``), or its a-posteriori clutter
+    probability from the tracker's association of the scan (``"unassociated"``: Musicki's refinement, the map updated
+    after the tracker's step, ``Simulator.step``; the tracker must offer ``clutter_probabilities``).
 
     Seed 004's ToA (``toa_estimator = "hmm"``, :mod:`uwb_env.detection.hmm`): the scan's and the raw empty room's
     energies in bins of ``hmm_bin_s`` from the blind zone's end, the single-capture change statistic O_k per bin
@@ -876,7 +879,7 @@ class SignalConfig:
     clutter_map: bool = False
     clutter_map_cell_m: float = 0.25
     clutter_map_memory_scans: float = 50.0
-    clutter_map_count: Literal["all", "still"] = "all"
+    clutter_map_count: Literal["all", "still", "unassociated"] = "all"
 
     def __post_init__(self) -> None:
         for name in (
@@ -986,7 +989,7 @@ class SignalConfig:
         _finite("SignalConfig", "clutter_map_memory_scans", self.clutter_map_memory_scans)
         if self.clutter_map_memory_scans < 1.0:
             _fail("SignalConfig", "clutter_map_memory_scans", self.clutter_map_memory_scans, ">= 1 (scans)")
-        _choice("SignalConfig", "clutter_map_count", self.clutter_map_count, ("all", "still"))
+        _choice("SignalConfig", "clutter_map_count", self.clutter_map_count, ("all", "still", "unassociated"))
         if self.clutter_map_count == "still" and self.network != "couples":
             _fail("SignalConfig", "clutter_map_count", self.clutter_map_count, "'all' unless network = 'couples'")
         if self.clutter_map and self.output != "positions":

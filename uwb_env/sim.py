@@ -2,7 +2,10 @@
 
 ``Simulator.reset(seed)`` draws the episode (named streams, truth first); ``Simulator.step(plan)`` senses the next
 scan with the plan and updates the tracker, whose detection probabilities come from the sensor model at each
-track's predicted position with the waveform the plan sends. ``run_episode`` plays a plan policy through an
+track's predicted position with the waveform the plan sends. A sensor whose ``needs_association`` is set (the signal
+sensor's clutter map with ``clutter_map_count = "unassociated"``) gets the tracker's per-detection clutter
+probabilities of the scan back after the tracker's step (``sensor.after_tracking``): the one way back, nothing else
+flows from the tracker to the sensor. ``run_episode`` plays a plan policy through an
 episode and returns the track accounting of ``uwb_env.metrics``.
 """
 
@@ -60,6 +63,19 @@ class Simulator:
         )
         self._plan: ScanPlan | None = None
         self.k = 0
+        # Musicki's clutter map: the tracker records its association for the sensor (after_tracking). Optional
+        # capabilities of a sensor and a tracker, outside their protocols: looked up, not assumed.
+        self._feedback = bool(getattr(self.sensor, "needs_association", False))
+        self._clutter_probabilities: Callable[[], tuple[FloatArray, ...]] | None = None
+        if self._feedback:
+            record = getattr(self.tracker, "record_association", None)
+            self._clutter_probabilities = getattr(self.tracker, "clutter_probabilities", None)
+            if not callable(record) or not callable(self._clutter_probabilities):
+                raise ValueError(
+                    f"tracker.kind = {self.tracker_cfg.kind!r}: sensing.signal.clutter_map_count = 'unassociated' "
+                    "needs a tracker with record_association / clutter_probabilities (allowed: 'imm-lmipda')"
+                )
+            record(True)
 
     def _pd(self, tx: int, rx: int, positions: FloatArray) -> FloatArray:
         """Pd of pair (tx, rx) at ``positions``; ``rx = -1`` is the network's fused position measurement."""
@@ -115,6 +131,8 @@ class Simulator:
         if not delivering.any():  # every listening receiver is warming up: the tracker only predicts
             dets = ()
         tracks = self.tracker.step(dets, t, self.k)
+        if self._clutter_probabilities is not None:  # the map takes the scan once the tracker has associated it
+            self.sensor.after_tracking(self.episode, dets, self._clutter_probabilities())  # type: ignore[attr-defined]
         return ScanResult(self.k, t, dets, tracks)
 
 

@@ -44,7 +44,7 @@ from uwb_env.config import TrackerConfig
 from uwb_env.scene.layout import SceneLayout
 from uwb_env.scene.motion_models import model_transition, process_noise
 from uwb_env.sensing.records import Detections
-from uwb_env.tracking import compiled
+from uwb_env.tracking import ambiguity, compiled
 from uwb_env.tracking.expectation import GaussianLookahead, filter_args
 from uwb_env.tracking.imm import imm_combine, restrict_transition, switch_model_sets, switch_probabilities
 from uwb_env.tracking.initiation import (
@@ -54,9 +54,11 @@ from uwb_env.tracking.initiation import (
     ridge_range,
 )
 from uwb_env.tracking.kernels import (
+    gaussian_log_likelihood,
     symmetrise,
 )
-from uwb_env.tracking.lmipda import predict_existence
+from uwb_env.tracking.lmipda import lmipda, predict_existence
+from uwb_env.tracking.measurement import angular_mask, wrap_residual
 from uwb_env.tracking.trackset import FIELDS as _FIELDS
 from uwb_env.tracking.trackset import Prediction, TrackSet
 from uwb_env.typing import BoolArray, FloatArray, IntArray
@@ -185,6 +187,7 @@ class Tracker(GaussianLookahead):
         )
         # the compiled initiation unless a subclass brings its own selection (the numpy reference)
         self._fused_initiation = type(self)._form_tracks is Tracker._form_tracks
+        self._record = False  # record_association: each scan's association probabilities (off: nothing computed)
         self.reset()
 
     @classmethod
@@ -205,6 +208,7 @@ class Tracker(GaussianLookahead):
         self._previous = _Candidates()
         self._time: float | None = None
         self._pd_cache: dict[tuple[int, int], FloatArray] = {}
+        self._owned: list[FloatArray] = []
 
     def _active_mask(self, scan_index: int) -> BoolArray:
         """``(r,)`` the models active at this scan (cached per scan index and per set; read-only)."""
@@ -268,11 +272,90 @@ class Tracker(GaussianLookahead):
         self._time = time_s
         self._pd_cache: dict[tuple[int, int], FloatArray] = {}
         unused = []
+        record = self._record
+        if record:
+            self._owned = []
         for det in detections:  # receiver by receiver, sequentially (seed 003)
-            used = self._update(self._with_floor(det)) if len(self.tracks) and len(det) else np.zeros(len(det), bool)
+            if len(self.tracks) and len(det):
+                floored = self._with_floor(det)
+                if record:  # from the tracks before this receiver's update (the update works in place)
+                    self._owned.append(self.association_probabilities(floored))
+                used = self._update(floored)
+            else:
+                used = np.zeros(len(det), bool)
+                if record:
+                    self._owned.append(np.zeros(len(det)))
             unused.append((det, ~used))
         self._initiate(unused, time_s, scan_index)
         return self._confirm_and_prune()
+
+    def record_association(self, on: bool = True) -> None:
+        """Record, from the next ``step`` on, each detection's association probabilities (``clutter_probabilities``).
+
+        An optional capability (not in ``tracking.protocol``): ``Simulator`` turns it on for a sensor whose clutter map
+        counts the unassociated detections; off, ``step`` computes nothing more.
+        """
+        self._record = bool(on)
+
+    def clutter_probabilities(self) -> tuple[FloatArray, ...]:
+        """Per record of the last ``step`` (in order), ``(M,)`` each detection's a-posteriori clutter probability.
+
+        ``1 - sum_t P(track t exists and made detection i)`` (``association_probabilities``), clipped to [0, 1]
+        (LMIPDA's per-track approximations need not sum to at most 1 exactly). Needs ``record_association()``
+        before the step; a record the tracker met without tracks: every detection 1 (no track can have made it).
+        """
+        if not self._record:
+            raise RuntimeError("clutter_probabilities: call record_association() before step() to record them")
+        return tuple(np.clip(1.0 - o, 0.0, 1.0) for o in self._owned)
+
+    def association_probabilities(self, det: Detections) -> FloatArray:
+        """``(M,)`` P(some track exists and detection i is its) of one pair's ``det`` against the current tracks (pure).
+
+        Musicki & La Scala's LMIPDA (``uwb_env.tracking.lmipda``) on the tracks as they stand before this pair's
+        update: the same gating (chi-square ``gate_probability``), gate-truncated likelihood ratios against the
+        floored clutter intensity and Pd as ``_update``; then, with psi^t+ the posterior existence, mu_r^t+ the
+        posterior model probabilities and beta_i^{t,r} the association probabilities conditioned on existence,
+
+            P_i = sum_t psi^t+ sum_r mu_r^t+ beta_i^{t,r}
+
+        (the quantity whose > 1/2 marks a detection taken, ``compiled.receiver_update``; the numpy twin computes
+        it the same way, ``reference.ReferenceTracker._update``). Moments by the compiled filter kernel.
+        """
+        cfg, t = self.cfg, self.tracks
+        names, M = det.measurement_names, len(det)
+        owned = np.zeros(M)
+        if not len(t) or not M:
+            return owned
+        a = self._active_index(t.active[0])
+        tx, rx = self.tx_pos[det.tx], self.rx_pos[det.rx]
+        kinds, wm, wc, sigma_scale, use_ukf = self.compiled_filter_args(names)
+        z_hat, S0, C, ok = compiled.measurement_moments(t.x, t.P, a, kinds, tx, rx, wm, wc, sigma_scale, use_ukf)
+        if not ok:
+            raise np.linalg.LinAlgError("association_probabilities: a covariance is not positive definite")
+        nu = wrap_residual(det.z[None, None] - z_hat[:, :, None], angular_mask(names))  # (N, a, M, m)
+        period = det.range_rate_period_mps
+        if np.isfinite(period) and "range_rate" in names:  # folded range-rate (tracking.ambiguity)
+            d = names.index("range_rate")
+            blind = ambiguity.unresolved(S0, d, period)
+            S0, C = ambiguity.marginalise(S0, C, d, period, blind)
+            nu = ambiguity.fold_innovations(nu, d, period, blind)
+        g2 = self._gates[len(names)]
+        s_diag = np.diagonal(S0, axis1=-2, axis2=-1)[:, :, None] + np.diagonal(det.R, axis1=-2, axis2=-1)[None, None]
+        ti, ri, mi = np.nonzero(np.all(nu * nu <= g2 * s_diag, axis=-1))  # exact pre-gate (ReferenceTracker)
+        loglik, d2 = gaussian_log_likelihood(nu[ti, ri, mi], S0[ti, ri] + det.R[mi])
+        keep = d2 < g2
+        ti, ri, mi, loglik = ti[keep], ri[keep], mi[keep], loglik[keep]
+        if mi.size == 0:
+            return owned
+        rho = np.maximum(det.clutter_intensity, cfg.min_clutter_intensity)
+        log_ratio = np.zeros((len(t), a.size, M))
+        gated = np.zeros((len(t), a.size, M), bool)
+        log_ratio[ti, ri, mi] = loglik - np.log(cfg.gate_probability) - np.log(rho[mi])
+        gated[ti, ri, mi] = True
+        psi, mu, beta = lmipda(
+            log_ratio, gated, t.mu[:, a], t.existence, self._pd(det, t), cfg.gate_probability, cfg.fixed_existence
+        )
+        return np.einsum("n,nr,nrj->j", psi, mu, beta[:, :, 1:])
 
     def _confirm_and_prune(self) -> TrackSet:
         """Step 5 of the scan (module docstring): confirmation, then deletion; returns the tracks kept."""

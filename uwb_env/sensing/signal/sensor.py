@@ -106,6 +106,7 @@ class SignalEpisode:
     centre_phase: FloatArray | None = None  # (P, K, C) coherent_echoes: the body centres' carrier phases, held
     clutter_map: ClutterMap | None = None  # signal.clutter_map: the position detections' clutter map, this episode's
     map_previous: tuple[FloatArray, IntArray] | None = None  # clutter_map_count "still": last scan's couples (r, tx)
+    map_pending: tuple[FloatArray, bool] | None = None  # "unassociated": this scan's positions (n, 2), observed
 
 
 @dataclass(frozen=True, slots=True)
@@ -199,6 +200,8 @@ class SignalSensor(ParametricModelHooks):
         self.toa = toa_estimator(sig.toa_estimator)
         self.normalize = NORMALIZATIONS.get(sig.normalization)
         self.position_receivers = 2 if sig.network == "couples" else sig.nu  # receivers behind a fused position
+        # Musicki's refinement: the clutter map waits for the tracker's association of the scan (after_tracking)
+        self.needs_association = bool(sig.clutter_map and sig.clutter_map_count == "unassociated")
         if sig.network == "couples":
             self._init_couples()
         # the trackers' range std: the floor, and an extended person's spread about its centre (BodyModelConfig)
@@ -841,14 +844,17 @@ class SignalSensor(ParametricModelHooks):
         Clutter intensity ``false_position_density_per_m2`` over the surveillance area; with ``signal.clutter_map``
         (and the ``episode``'s map) each detection's is the map's density at its position, read before the map
         takes this scan's detections (``observed``: the scan looked at the area at all; a scan with every receiver
-        off neither adds nor forgets). The expected false alarms stay the prior's.
+        off neither adds nor forgets). The expected false alarms stay the prior's. With ``clutter_map_count =
+        "unassociated"`` the positions wait in ``episode.map_pending`` for :meth:`after_tracking`.
         """
         density = self.sig.false_position_density_per_m2
         n = z.shape[0]
         cmap = episode.clutter_map if episode is not None else None
         if cmap is not None:
             intensity = cmap.density(z)
-            if observed:
+            if self.needs_association:  # read now, update once the tracker has associated this scan
+                episode.map_pending = (z.copy(), observed)
+            elif observed:
                 cmap.update(z, map_weight)
         else:
             intensity = np.full(n, density)
@@ -865,6 +871,39 @@ class SignalSensor(ParametricModelHooks):
             clutter_intensity=intensity,
             expected_false_alarms=density * self._area_m2,
         )
+
+    def after_tracking(
+        self, episode: SignalEpisode, detections: tuple[Detections, ...], clutter: tuple[FloatArray, ...]
+    ) -> None:
+        """Musicki's clutter-map update of the scan just tracked (``clutter_map_count = "unassociated"``).
+
+        ``detections``: the records the tracker got this scan (``()`` when none were delivered); ``clutter``: per
+        record, ``(M,)`` each detection's a-posteriori clutter probability (``Tracker.clutter_probabilities``).
+        The scan's positions (``episode.map_pending``, left by ``sense``, which read the map before) enter the map
+        each with its clutter probability; positions the tracker did not get count 1 (no track used them); a scan
+        that observed nothing neither adds nor forgets. Without the mode, or without a pending scan: nothing.
+        """
+        pending, episode.map_pending = episode.map_pending, None
+        if not self.needs_association or episode.clutter_map is None or pending is None:
+            return
+        z, observed = pending
+        if not observed:
+            return
+        if len(detections) != len(clutter):
+            raise ValueError(
+                f"after_tracking: clutter has {len(clutter)} records for {len(detections)} detection records; "
+                "one (M,) array per record is allowed"
+            )
+        weight = np.ones(z.shape[0])
+        for det, c in zip(detections, clutter, strict=True):  # records: one (the network's positions)
+            if det.rx == -1 and det.z.shape == z.shape:
+                c = np.asarray(c, dtype=float)
+                if c.shape != (z.shape[0],) or not np.all((c >= 0.0) & (c <= 1.0)):
+                    raise ValueError(
+                        f"after_tracking: clutter weights {c!r} must be ({z.shape[0]},) probabilities in [0, 1]"
+                    )
+                weight = c
+        episode.clutter_map.update(z, weight)
 
     # ------------------------------------------------------------------------------- seed 001: ToA couples
     def couples(
