@@ -253,3 +253,17 @@ def test_pda_mode_claims_as_if_existing_and_still_updates_existence():
     lm = lmipda(two_lr, g2, np.ones((2, 1)), low, np.full(2, 0.9), 0.99)
     pd_ = lmipda(two_lr, g2, np.ones((2, 1)), low, np.full(2, 0.9), 0.99, fixed_existence=True)
     assert pd_[2][0, 0, 1] < lm[2][0, 0, 1]
+
+
+def test_lmipda_existence_never_exceeds_one_by_rounding():
+    """(1 - delta) psi / (1 - delta psi) <= 1 exactly, but not after rounding: a case found by search, where the plain
+    expression gives 1 + 2^-52 (a track at psi = 1 - 2^-52 whose measurement's likelihood ratios sum past P_D P_G)."""
+    lr0, lr1, w = 1.2072844334691002, 2.6214445811755693, 0.8523409919169496
+    psi, pd, pg = 0.9999999999999998, 0.842341338465401, 0.99
+    log_ratio = np.array([[[lr0], [lr1]]])
+    mu = np.array([[w, 1.0 - w]])
+    lam = mu[0, 0] * np.exp(lr0) + mu[0, 1] * np.exp(lr1)  # one track, one measurement: omega = 1, share = lambda
+    delta = pd * pg * (mu[0, 0] * (1.0 - np.exp(lr0)) + mu[0, 1] * (1.0 - np.exp(lr1)))
+    assert delta < 0 < lam and (1.0 - delta) * psi / (1.0 - delta * psi) > 1.0  # the plain expression overshoots
+    psi_post = lmipda(log_ratio, np.ones((1, 2, 1), bool), mu, np.array([psi]), np.array([pd]), pg)[0]
+    assert psi_post[0] == 1.0

@@ -564,7 +564,7 @@ def receiver_update(
                     beta[n, r, i + 1] = 0.0
             mu_post[n, r] = denom  # 1 - delta_r, normalised below
         one_minus = 1.0 - delta
-        psi_post[n] = one_minus * psi[n] / (1.0 - delta * psi[n])
+        psi_post[n] = min(one_minus * psi[n] / (1.0 - delta * psi[n]), 1.0)  # <= 1 exactly; its rounding: lmipda.py
         for r in range(a):
             mu_post[n, r] = mu[n, act[r]] * mu_post[n, r] / one_minus if one_minus > 0.0 else mu[n, act[r]]
 

@@ -61,7 +61,9 @@ def lmipda(
     delta_r = pdpg[:, None] * (1.0 - share_tr.sum(axis=-1))  # (N, r)
     delta = np.einsum("nr,nr->n", mu, delta_r)  # = P_D P_G (1 - sum_i lambda_i^t / omega), mu sums to 1
     one_minus = 1.0 - delta
-    psi_post = one_minus * psi / (1.0 - delta * psi)
+    # <= 1 exactly (1 - delta psi - (1 - delta) psi = 1 - psi >= 0), but its rounding can exceed 1 by an ulp when
+    # psi ~ 1 and delta < 0 (claims summing past 1): bounded at the exact value's bound, so 1 - psi stays >= 0
+    psi_post = np.minimum(one_minus * psi / (1.0 - delta * psi), 1.0)
     mu_post = np.where(
         one_minus[:, None] > 0, mu * (1.0 - delta_r) / np.where(one_minus > 0, one_minus, 1.0)[:, None], mu
     )
