@@ -22,6 +22,10 @@ A tracker (``TrackerConfig.kind``, built by ``uwb_env.tracking.registry.make_tra
   expected covariance is defined for particle trackers: the update of their moment-matched Gaussian.
 - ``cfg``: the ``TrackerConfig`` (the lookahead reads its sensor-model assumptions: assumed RCS and Swerling case,
   Pd cap, range-rate noise floor, gate probability, clutter floor).
+- optional (``imm-lmipda`` only): ``record_association(on)`` and ``clutter_probabilities()``, per detection record of
+  the last step each detection's a-posteriori clutter probability (1 - the tracks' LMIPDA claims on it); the
+  ``Simulator`` looks them up (``getattr``) only when the sensor's clutter map counts unassociated detections
+  (``SignalConfig.clutter_map_count = "unassociated"``, Musicki & Evans 2004), and says so when the tracker lacks them.
 
 State layout everywhere: ``[x, vx, y, vy, ax, ay]`` [m, m/s, m/s^2].
 """
