@@ -22,6 +22,7 @@ import math
 
 import numpy as np
 
+from uwb_env.tracking.measurement import angular_mask, wrap_residual
 from uwb_env.typing import BoolArray, FloatArray
 from uwb_env.waveforms.chirp import fold_periodic
 
@@ -57,3 +58,26 @@ def fold_innovations(nu: FloatArray, d: int, period: float, mask: BoolArray) -> 
     nu[..., d] = fold_periodic(nu[..., d], period)
     nu[mask, :, d] = 0.0
     return nu
+
+
+def gated_innovations(
+    det, z_hat: FloatArray, S0: FloatArray, C: FloatArray, g2: float
+) -> tuple[FloatArray, FloatArray, FloatArray, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Innovations of one pair's detections against (N, r) predicted measurements, folded, and the pre-gate.
+
+    ``det`` a ``Detections`` (z (M, m), R (M, m, m), measurement names, range-rate period); ``z_hat`` (N, r, m),
+    ``S0`` (N, r, m, m), ``C`` (N, r, 6, m) the filter's moments; ``g2`` the chi-square gate. With a folded range-rate
+    the unresolved (track, model)s are marginalised over it (:func:`marginalise`) and the innovations folded.
+    Returns ``(S0, C, nu (N, r, M, m), (ti, ri, mi))``, the last the triples passing the exact pre-gate
+    nu_k^2 <= g2 (S0 + R)_kk for every component k (nu^T S^-1 nu >= nu_k^2 / S_kk for a positive definite S).
+    """
+    names = det.measurement_names
+    nu = wrap_residual(det.z[None, None] - z_hat[:, :, None], angular_mask(names))  # (N, r, M, m)
+    period = det.range_rate_period_mps
+    if math.isfinite(period) and "range_rate" in names:  # folded range-rate
+        d = names.index("range_rate")
+        blind = unresolved(S0, d, period)
+        S0, C = marginalise(S0, C, d, period, blind)
+        nu = fold_innovations(nu, d, period, blind)
+    s_diag = np.diagonal(S0, axis1=-2, axis2=-1)[:, :, None] + np.diagonal(det.R, axis1=-2, axis2=-1)[None, None]
+    return S0, C, nu, np.nonzero(np.all(nu * nu <= g2 * s_diag, axis=-1))

@@ -9,8 +9,6 @@ lookahead's compiled expected update (``uwb_env.tracking.expectation``).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from uwb_env.sensing.records import Detections
@@ -31,7 +29,7 @@ from uwb_env.tracking.kernels import (
     ukf_moments,
 )
 from uwb_env.tracking.lmipda import lmipda
-from uwb_env.tracking.measurement import angular_mask, wrap_residual
+from uwb_env.tracking.measurement import angular_mask
 from uwb_env.tracking.tracker import _PV, Tracker, _Candidates
 from uwb_env.typing import BoolArray, FloatArray, IntArray
 
@@ -134,18 +132,9 @@ class ReferenceTracker(Tracker):
         tx, rx = self.tx_pos[det.tx], self.rx_pos[det.rx]
         X, PP, MU = t.x[:, a], t.P[:, a], t.mu[:, a]
         N, r = len(t), a.size
-        ang = angular_mask(names)
         z_hat, S0, C = self.measurement_moments(names, X, PP, tx, rx)
         g2 = self._gates[m]
-        nu = wrap_residual(det.z[None, None] - z_hat[:, :, None], ang)  # (N, r, M, m)
-        period = det.range_rate_period_mps
-        if math.isfinite(period) and "range_rate" in names:  # folded range-rate (tracking.ambiguity)
-            d = names.index("range_rate")
-            blind = ambiguity.unresolved(S0, d, period)
-            S0, C = ambiguity.marginalise(S0, C, d, period, blind)
-            nu = ambiguity.fold_innovations(nu, d, period, blind)
-        s_diag = np.diagonal(S0, axis1=-2, axis2=-1)[:, :, None] + np.diagonal(det.R, axis1=-2, axis2=-1)[None, None]
-        ti, ri, mi = np.nonzero(np.all(nu * nu <= g2 * s_diag, axis=-1))
+        S0, C, nu, (ti, ri, mi) = ambiguity.gated_innovations(det, z_hat, S0, C, g2)  # folded, pre-gated
         S = S0[ti, ri] + det.R[mi]
         loglik, d2 = gaussian_log_likelihood(nu[ti, ri, mi], S)
         keep = d2 < g2

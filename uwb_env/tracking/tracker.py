@@ -58,7 +58,6 @@ from uwb_env.tracking.kernels import (
     symmetrise,
 )
 from uwb_env.tracking.lmipda import lmipda, predict_existence
-from uwb_env.tracking.measurement import angular_mask, wrap_residual
 from uwb_env.tracking.trackset import FIELDS as _FIELDS
 from uwb_env.tracking.trackset import Prediction, TrackSet
 from uwb_env.typing import BoolArray, FloatArray, IntArray
@@ -332,16 +331,8 @@ class Tracker(GaussianLookahead):
         z_hat, S0, C, ok = compiled.measurement_moments(t.x, t.P, a, kinds, tx, rx, wm, wc, sigma_scale, use_ukf)
         if not ok:
             raise np.linalg.LinAlgError("association_probabilities: a covariance is not positive definite")
-        nu = wrap_residual(det.z[None, None] - z_hat[:, :, None], angular_mask(names))  # (N, a, M, m)
-        period = det.range_rate_period_mps
-        if np.isfinite(period) and "range_rate" in names:  # folded range-rate (tracking.ambiguity)
-            d = names.index("range_rate")
-            blind = ambiguity.unresolved(S0, d, period)
-            S0, C = ambiguity.marginalise(S0, C, d, period, blind)
-            nu = ambiguity.fold_innovations(nu, d, period, blind)
         g2 = self._gates[len(names)]
-        s_diag = np.diagonal(S0, axis1=-2, axis2=-1)[:, :, None] + np.diagonal(det.R, axis1=-2, axis2=-1)[None, None]
-        ti, ri, mi = np.nonzero(np.all(nu * nu <= g2 * s_diag, axis=-1))  # exact pre-gate (ReferenceTracker)
+        S0, C, nu, (ti, ri, mi) = ambiguity.gated_innovations(det, z_hat, S0, C, g2)  # as ReferenceTracker._update
         loglik, d2 = gaussian_log_likelihood(nu[ti, ri, mi], S0[ti, ri] + det.R[mi])
         keep = d2 < g2
         ti, ri, mi, loglik = ti[keep], ri[keep], mi[keep], loglik[keep]
