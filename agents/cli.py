@@ -68,6 +68,11 @@ Algorithms: ppo, a2c, dqn, maskable-ppo. Hyper-parameters come from the versione
 from the newest checkpoint up to ``--timesteps`` in total. Evaluate a trained run in a paired campaign with
 ``uwb-env-evaluate --schemes myopic rl:RUN_DIR ...``.
 
+Behaviour-cloning warm start (actor-critic algorithms): ``--hyper bc_steps=20000`` fits the policy and its critic to
+that many steps of a scheduler's episodes before PPO (``bc_scheduler=myopic`` by default, ``bc_epochs=20``;
+``agents/rl/imitation.py``; ``bc.yaml`` in the run folder records the agreement). With the lookahead costs observed
+(``--env-kwarg include_lookahead=true``) and ``learning_rate=1e-4 ent_coef=0.0`` it is the README's urban recipe.
+
 With ``--engine rllib`` (the ``ray`` extra; RLlib's new API stack, ``agents/rl/rllib_engine.py``):
 
     uwb-env-train --engine rllib --env uwb_env/IndoorSensorSubset-v1 --algo ppo --timesteps 20000 \
