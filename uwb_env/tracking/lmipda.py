@@ -23,9 +23,14 @@ existence), and psi is still updated, as the track-quality measure that confirma
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
-from uwb_env.typing import BoolArray, FloatArray
+from uwb_env.config import TrackerConfig
+from uwb_env.sensing.records import Detections
+from uwb_env.tracking.kernels import gaussian_log_likelihood
+from uwb_env.typing import BoolArray, FloatArray, IntArray
 
 
 def lmipda(
@@ -78,3 +83,57 @@ def lmipda(
 def predict_existence(psi: FloatArray, p_survive: float, p_birth: float = 0.0) -> FloatArray:
     """Markov-chain existence prediction psi_k|k-1 = p11 psi + p21 (1 - psi) (seed 003 section 4.2.4)."""
     return p_survive * psi + p_birth * (1.0 - psi)
+
+
+class Association(NamedTuple):
+    """One pair's LMIPDA association over the (track, model, measurement) triples inside the gate.
+
+    ``ti``, ``ri``, ``mi`` (K,) the triples; ``cols`` (J,) the measurements some track gates and ``j`` (K,) each
+    triple's column in them; ``psi`` (N,), ``mu`` (N, r), ``beta`` (N, r, J + 1) :func:`lmipda`'s posteriors;
+    ``owned`` (J,) P(some track exists and measurement ``cols`` is its) = sum_t psi_t+ sum_r mu_r+ beta_i^{t,r}.
+    """
+
+    ti: IntArray
+    ri: IntArray
+    mi: IntArray
+    cols: IntArray
+    j: IntArray
+    psi: FloatArray
+    mu: FloatArray
+    beta: FloatArray
+    owned: FloatArray
+
+
+def associate(
+    det: Detections,
+    nu: FloatArray,
+    S0: FloatArray,
+    triples: tuple[IntArray, IntArray, IntArray],
+    g2: float,
+    mu: FloatArray,
+    psi: FloatArray,
+    pd: FloatArray,
+    cfg: TrackerConfig,
+) -> Association:
+    """LMIPDA of one pair's detections from pre-gated innovations (``ambiguity.gated_innovations``).
+
+    ``nu`` (N, r, M, m) and ``S0`` (N, r, m, m) the innovations and predicted measurement covariances, ``triples``
+    the pre-gate's (track, model, measurement) indices, ``g2`` the chi-square gate; ``mu`` (N, r) the active models'
+    probabilities, ``psi`` (N,) existence, ``pd`` (N,). The exact gate d^2 < g2, then the gate-truncated likelihood
+    ratios against the clutter intensity floored at ``cfg.min_clutter_intensity`` (module docstring), over the gated
+    measurements only (the others change no track's posteriors).
+    """
+    ti, ri, mi = triples
+    loglik, d2 = gaussian_log_likelihood(nu[ti, ri, mi], S0[ti, ri] + det.R[mi])
+    keep = d2 < g2
+    ti, ri, mi, loglik = ti[keep], ri[keep], mi[keep], loglik[keep]
+    cols, j = np.unique(mi, return_inverse=True)
+    N, r = mu.shape
+    rho = np.maximum(det.clutter_intensity[cols], cfg.min_clutter_intensity)
+    log_ratio = np.zeros((N, r, cols.size))
+    gated = np.zeros((N, r, cols.size), bool)
+    log_ratio[ti, ri, j] = loglik - np.log(cfg.gate_probability) - np.log(rho[j])
+    gated[ti, ri, j] = True
+    psi_post, mu_post, beta = lmipda(log_ratio, gated, mu, psi, pd, cfg.gate_probability, cfg.fixed_existence)
+    owned = np.einsum("n,nr,nrj->j", psi_post, mu_post, beta[:, :, 1:])
+    return Association(ti, ri, mi, cols, j, psi_post, mu_post, beta, owned)

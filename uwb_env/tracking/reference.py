@@ -19,7 +19,6 @@ from uwb_env.tracking.initiation import fuse_candidates, two_point_pairs
 from uwb_env.tracking.kernels import (
     UnscentedWeights,
     ekf_moments,
-    gaussian_log_likelihood,
     joseph_update,
     kf_predict,
     linearisation_error,
@@ -28,7 +27,7 @@ from uwb_env.tracking.kernels import (
     symmetrise,
     ukf_moments,
 )
-from uwb_env.tracking.lmipda import lmipda
+from uwb_env.tracking.lmipda import associate
 from uwb_env.tracking.measurement import angular_mask
 from uwb_env.tracking.tracker import _PV, Tracker, _Candidates
 from uwb_env.typing import BoolArray, FloatArray, IntArray
@@ -134,42 +133,23 @@ class ReferenceTracker(Tracker):
         N, r = len(t), a.size
         z_hat, S0, C = self.measurement_moments(names, X, PP, tx, rx)
         g2 = self._gates[m]
-        S0, C, nu, (ti, ri, mi) = ambiguity.gated_innovations(det, z_hat, S0, C, g2)  # folded, pre-gated
-        S = S0[ti, ri] + det.R[mi]
-        loglik, d2 = gaussian_log_likelihood(nu[ti, ri, mi], S)
-        keep = d2 < g2
-        ti, ri, mi, loglik, S = ti[keep], ri[keep], mi[keep], loglik[keep], S[keep]
-        pd = self._pd(det, t)
-        if mi.size == 0:
-            empty = np.zeros((N, r, 0))
-            psi, mu, _ = lmipda(
-                empty, empty.astype(bool), MU, t.existence, pd, cfg.gate_probability, cfg.fixed_existence
-            )
-            t.existence = psi
-            t.mu[:, a] = mu
-            return np.zeros(len(det), bool)
-        cols, j = np.unique(mi, return_inverse=True)  # the measurements some track gates
-        J = cols.size
-        rho = np.maximum(det.clutter_intensity[cols], cfg.min_clutter_intensity)
-        log_ratio = np.zeros((N, r, J))
-        gated = np.zeros((N, r, J), bool)
-        log_ratio[ti, ri, j] = loglik - np.log(cfg.gate_probability) - np.log(rho[j])
-        gated[ti, ri, j] = True
-        psi, mu, beta = lmipda(log_ratio, gated, MU, t.existence, pd, cfg.gate_probability, cfg.fixed_existence)
+        S0, C, nu, triples = ambiguity.gated_innovations(det, z_hat, S0, C, g2)  # folded, pre-gated
+        assoc = associate(det, nu, S0, triples, g2, MU, t.existence, self._pd(det, t), cfg)
+        t.existence = assoc.psi
+        t.mu[:, a] = assoc.mu
+        taken = np.zeros(len(det), bool)
+        if assoc.cols.size == 0:
+            return taken
+        ti, ri, mi, j = assoc.ti, assoc.ri, assoc.mi, assoc.j
         H = linearised_h(PP, C)  # (N, r, m, 6), once per track and model
         xu, Pu = joseph_update(X[ti, ri], PP[ti, ri], C[ti, ri], S0[ti, ri], det.R[mi], nu[ti, ri, mi], H[ti, ri])
-        xs = np.broadcast_to(X[:, :, None], (N, r, J + 1, 6)).copy()
-        Ps = np.broadcast_to(PP[:, :, None], (N, r, J + 1, 6, 6)).copy()
+        xs = np.broadcast_to(X[:, :, None], (N, r, assoc.cols.size + 1, 6)).copy()
+        Ps = np.broadcast_to(PP[:, :, None], (N, r, assoc.cols.size + 1, 6, 6)).copy()
         xs[ti, ri, j + 1] = xu
         Ps[ti, ri, j + 1] = Pu
-        t.x[:, a], t.P[:, a] = mixture_reduce(beta, xs, Ps)
-        t.existence = psi
-        t.mu[:, a] = mu
-        # A measurement is taken (kept from initiation) when it belongs to some track with probability > 1/2:
-        # P(track t exists and measurement i is its) = psi_t+ sum_r mu_r+ beta_i^{t,r}.
-        owned = np.einsum("n,nr,nrj->j", psi, mu, beta[:, :, 1:])
-        taken = np.zeros(len(det), bool)
-        taken[cols] = owned > 0.5
+        t.x[:, a], t.P[:, a] = mixture_reduce(assoc.beta, xs, Ps)
+        # A measurement is taken (kept from initiation) when it belongs to some track with probability > 1/2
+        taken[assoc.cols] = assoc.owned > 0.5
         return taken
 
     def _azimuth_candidates(

@@ -54,10 +54,9 @@ from uwb_env.tracking.initiation import (
     ridge_range,
 )
 from uwb_env.tracking.kernels import (
-    gaussian_log_likelihood,
     symmetrise,
 )
-from uwb_env.tracking.lmipda import lmipda, predict_existence
+from uwb_env.tracking.lmipda import associate, predict_existence
 from uwb_env.tracking.trackset import FIELDS as _FIELDS
 from uwb_env.tracking.trackset import Prediction, TrackSet
 from uwb_env.typing import BoolArray, FloatArray, IntArray
@@ -332,21 +331,10 @@ class Tracker(GaussianLookahead):
         if not ok:
             raise np.linalg.LinAlgError("association_probabilities: a covariance is not positive definite")
         g2 = self._gates[len(names)]
-        S0, C, nu, (ti, ri, mi) = ambiguity.gated_innovations(det, z_hat, S0, C, g2)  # as ReferenceTracker._update
-        loglik, d2 = gaussian_log_likelihood(nu[ti, ri, mi], S0[ti, ri] + det.R[mi])
-        keep = d2 < g2
-        ti, ri, mi, loglik = ti[keep], ri[keep], mi[keep], loglik[keep]
-        if mi.size == 0:
-            return owned
-        rho = np.maximum(det.clutter_intensity, cfg.min_clutter_intensity)
-        log_ratio = np.zeros((len(t), a.size, M))
-        gated = np.zeros((len(t), a.size, M), bool)
-        log_ratio[ti, ri, mi] = loglik - np.log(cfg.gate_probability) - np.log(rho[mi])
-        gated[ti, ri, mi] = True
-        psi, mu, beta = lmipda(
-            log_ratio, gated, t.mu[:, a], t.existence, self._pd(det, t), cfg.gate_probability, cfg.fixed_existence
-        )
-        return np.einsum("n,nr,nrj->j", psi, mu, beta[:, :, 1:])
+        S0, C, nu, triples = ambiguity.gated_innovations(det, z_hat, S0, C, g2)  # as ReferenceTracker._update
+        assoc = associate(det, nu, S0, triples, g2, t.mu[:, a], t.existence, self._pd(det, t), cfg)
+        owned[assoc.cols] = assoc.owned
+        return owned
 
     def _confirm_and_prune(self) -> TrackSet:
         """Step 5 of the scan (module docstring): confirmation, then deletion; returns the tracks kept."""
