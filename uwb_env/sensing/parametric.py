@@ -1622,14 +1622,9 @@ class ParametricSensor:
             az, ok, snr, rdot, cnr, arg, walk_pd, walk_peak = self._moving_link(
                 link, pos, vel, waveforms, rcs_m2, tx, rx
             )
-            if self._notch is not None:  # doppler_notch_gain_at's numpy tail (numpy's exp), the same numbers
-                eta = self.cfg.sensing.clutter.residue_fraction
-                snr = snr * (1.0 / (1.0 + eta * cnr * np.exp(arg)))
-            snr_pd = snr
+            snr, snr_pd = self._notch_and_walk(snr, cnr, arg, walk_pd, walk_peak)
             if self._migration is not None:
                 walk = rdot
-                snr_pd = snr * walk_pd  # detection
-                snr = snr * walk_peak  # the peak: R
         elif moving:
             az, ok, snr, pd = self._mean_link(tx, rx, pos, waveforms, rcs_m2, swerling, link)
             vel = np.ascontiguousarray(velocities, dtype=float).reshape(-1, 2)
@@ -1652,18 +1647,7 @@ class ParametricSensor:
         else:
             az, ok, snr, pd = self._mean_link(tx, rx, pos, waveforms, rcs_m2, swerling, link)
         if moving:
-            pfa = self.cfg.sensing.false_alarm_probability
-            # the detector's gain as in _mean_link: detection_gain_db and, with a clutter residue, its quadrature
-            gain, weights = link[2:]  # (W, J), (J,)
-            if weights.shape[0] == 1 and weights[0] == 1.0:  # one node of weight 1: x @ [1] = x (pd > 0), skipped
-                pd_echo = detection_probability(snr_pd * gain, pfa, swerling)
-            else:
-                scnr = snr_pd[..., None] * gain[:, None, :]  # (W, N, J)
-                pd_echo = detection_probability(scnr.reshape(-1), pfa, swerling).reshape(scnr.shape) @ weights
-            p_noise = self._p_noise  # windowed_detection_probability's noise peak (the same float)
-            if p_noise > 0.0:
-                pd_echo = pd_echo + p_noise - pd_echo * p_noise
-            pd = np.where(ok, pd_echo, 0.0)
+            pd = np.where(ok, self._echo_pd(snr_pd, *link[2:], swerling), 0.0)
         if not self._all_unit_chol:
             R = self._expected_covariance_reference(rx, az, ok, snr, waveforms)
             return pd, self._walk_scaled(R, waveforms, walk)
@@ -1723,22 +1707,59 @@ class ParametricSensor:
         az, ok, rdot, snr, cnr, arg, walk_pd, walk_peak = _moving_links_kernel(
             *link_args[:2], pos, vel, *link_args[2:19], float(rcs_m2), *link_args[19:]
         )
-        if self._notch is not None:  # doppler_notch_gain_at's numpy tail
-            eta = self.cfg.sensing.clutter.residue_fraction
-            snr = snr * (1.0 / (1.0 + eta * cnr * np.exp(arg)))
-        snr_pd = snr
-        if self._migration is not None:
-            snr_pd = snr * walk_pd  # detection
-            snr = snr * walk_peak  # the peak: R
-        pd_echo = detection_probability(snr_pd * link_args[19], self.cfg.sensing.false_alarm_probability, swerling)
-        p_noise = self._p_noise
-        if p_noise > 0.0:
-            pd_echo = pd_echo + p_noise - pd_echo * p_noise
+        snr, snr_pd = self._notch_and_walk(snr, cnr, arg, walk_pd, walk_peak)
+        pd_echo = self._echo_pd(snr_pd, link_args[19], links[0][4][3], swerling)
         R = _expected_covariances_kernel(az, ok, snr, starts, *cov_args, rdot, *self._walk_args())
         return [
             (np.where(ok[p], pd_echo[starts[p] : starts[p + 1]], 0.0), R[starts[p] : starts[p + 1]])
             for p in range(len(links))
         ]
+
+    def _notch_and_walk(
+        self, snr: FloatArray, cnr: FloatArray, arg: FloatArray, walk_pd: FloatArray, walk_peak: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """The moving-link kernels' numpy tail, ``(W, N)`` each: SNR at the peak (for R) and for detection (for Pd).
+
+        The notch's SCNR = SNR / (1 + eta CNR exp(exponent)) (``doppler_notch_gain_at``'s tail, numpy's exp: the
+        same numbers), then the range walk's coherent losses, one for detection and one for the peak.
+        """
+        if self._notch is not None:
+            eta = self.cfg.sensing.clutter.residue_fraction
+            snr = snr * (1.0 / (1.0 + eta * cnr * np.exp(arg)))
+        if self._migration is None:
+            return snr, snr
+        return snr * walk_peak, snr * walk_pd
+
+    def _echo_pd(self, snr_pd: FloatArray, gain: FloatArray, weights: FloatArray, swerling: int) -> FloatArray:
+        """``(W, N)`` Pd of the echo at ``snr_pd`` with the detector's ``gain`` ``(W, J)`` over nodes ``weights`` (J,).
+
+        The detector's gain as in ``_mean_link`` (detection_gain_db and, with a clutter residue, its quadrature), then
+        the noise peak of the truth-matching window, P = P_e + p_n - P_e p_n (``windowed_detection_probability``'s,
+        the same float). One node of weight 1 skips x @ [1] = x.
+        """
+        pfa = self.cfg.sensing.false_alarm_probability
+        if weights.shape[0] == 1 and weights[0] == 1.0:
+            pd_echo = detection_probability(snr_pd * gain, pfa, swerling)
+        else:
+            scnr = snr_pd[..., None] * gain[:, None, :]  # (W, N, J)
+            pd_echo = detection_probability(scnr.reshape(-1), pfa, swerling).reshape(scnr.shape) @ weights
+        p_noise = self._p_noise
+        return pd_echo + p_noise - pd_echo * p_noise if p_noise > 0.0 else pd_echo
+
+    def _kernel_tables(self, cnr: FloatArray | None, no_cnr: FloatArray) -> tuple:
+        """The moving-link kernels' notch and walk arguments: (on, cnr, step, lambda, pri, sigma_f, on, pd, peak).
+
+        ``cnr`` the pairs' CNR tables (None without static clutter, when ``no_cnr`` of the kernel's dimensions
+        stands in).
+        """
+        if self._notch is not None:
+            _, step, pri, sigma_f, lam = self._notch
+            notch = (True, cnr, float(step), lam, pri, sigma_f)
+        else:
+            notch = (False, no_cnr, 1.0, _NO_ROW, _NO_ROW, _NO_ROW)
+        if self._migration is None:
+            return (*notch, False, _NO_TABLE, _NO_TABLE)
+        return (*notch, True, self._migration_pd, self._migration[0])
 
     def _walk_args(self) -> tuple:
         """``walk_scale``'s tables after R: (on, gain, c_range, c_rate, half_dwell, period, step)."""
@@ -1768,15 +1789,9 @@ class ParametricSensor:
         for i, p in enumerate(pairs):
             sines[i, : p[14].size] = p[14]
         first = pairs[0]
+        cnr = None
         if self._notch is not None:
-            cnr_table, step, pri, sigma_f, lam = self._notch
-            cnr = np.ascontiguousarray(np.stack([cnr_table[:, tx, rx] for tx, rx, *_ in links]))
-            notch = (True, cnr, float(step), lam, pri, sigma_f)
-        else:
-            notch = (False, np.zeros((1, 1, 1)), 1.0, _NO_ROW, _NO_ROW, _NO_ROW)
-        walk = (
-            (False, _NO_TABLE, _NO_TABLE) if self._migration is None else (True, self._migration_pd, self._migration[0])
-        )
+            cnr = np.ascontiguousarray(np.stack([self._notch[0][:, tx, rx] for tx, rx, *_ in links]))
         w_all = np.concatenate([w for _, _, w, _, _ in links])
         link_args = (
             np.array([p[0] for p in pairs], dtype=float),  # tx (P, 2)
@@ -1802,8 +1817,7 @@ class ParametricSensor:
             self._p_noise,
             w_all,
             starts,
-            *notch,
-            *walk,
+            *self._kernel_tables(cnr, np.zeros((1, 1, 1))),
             self._WALK_STEP_MPS,
         )
         covs = [self._covariance_arguments(k, rx, w) for _, rx, w, k, _ in links]
@@ -1851,19 +1865,12 @@ class ParametricSensor:
         trains): the kernels the numpy path calls one by one, with the same arguments (:func:`_moving_link_kernel`).
         """
         pair_args, k, gain, weights = link
-        if self._notch is not None:
-            cnr_table, step, pri, sigma_f, lam = self._notch
-            notch = (True, cnr_table[:, tx, rx], float(step), lam, pri, sigma_f)
-        else:
-            notch = (False, _NO_TABLE, 1.0, _NO_ROW, _NO_ROW, _NO_ROW)
-        walk = (
-            (False, _NO_TABLE, _NO_TABLE) if self._migration is None else (True, self._migration_pd, self._migration[0])
-        )
-        az, ok, snr, rdot, cnr, arg, walk_pd, walk_peak = _moving_link_kernel(
+        cnr = None if self._notch is None else self._notch[0][:, tx, rx]
+        return _moving_link_kernel(
             *pair_args[:2], pos, vel, *pair_args[2:], k, float(rcs_m2), gain, weights,
-            self.cfg.sensing.false_alarm_probability, self._p_noise, waveforms, *notch, *walk, self._WALK_STEP_MPS,
+            self.cfg.sensing.false_alarm_probability, self._p_noise, waveforms, *self._kernel_tables(cnr, _NO_TABLE),
+            self._WALK_STEP_MPS,
         )  # fmt: skip
-        return az, ok, snr, rdot, cnr, arg, walk_pd, walk_peak
 
     def _walk_scaled(self, R: FloatArray, waveforms: IntArray, rdot: FloatArray | None) -> FloatArray:
         """``R`` ``(W, N, m, m)`` times the range walk's variance factors on range and range-rate (walk_factors).
