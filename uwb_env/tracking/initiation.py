@@ -415,12 +415,21 @@ def _residual_lower_bound(r, v, members, focal, near, far):  # pragma: no cover 
     s0 = _single_bound(r[0], v[0], near[members[0]], far[members[0]])
     s1 = _single_bound(r[1], v[1], near[members[1]], far[members[1]])
     s2 = _single_bound(r[2], v[2], near[members[2]], far[members[2]]) if nu == 3 else 0.0
+    p01 = _pair_bound(r[0], v[0], r[1], v[1], focal[members[0], members[1]])
+    if nu == 2:
+        return max(s0 + s1 + s2, p01 + s2)
+    p02 = _pair_bound(r[0], v[0], r[2], v[2], focal[members[0], members[2]])
+    p12 = _pair_bound(r[1], v[1], r[2], v[2], focal[members[1], members[2]])
+    return _partition_bound(s0, s1, s2, p01, p02, p12)
+
+
+@_jit
+def _partition_bound(s0, s1, s2, p01, p02, p12):  # pragma: no cover - compiled
+    """A 3-tuple's bound from its terms: the largest over its partitions, three singles or a pair and a single."""
     best = s0 + s1 + s2
-    best = max(best, _pair_bound(r[0], v[0], r[1], v[1], focal[members[0], members[1]]) + s2)
-    if nu == 3:
-        best = max(best, _pair_bound(r[0], v[0], r[2], v[2], focal[members[0], members[2]]) + s1)
-        best = max(best, _pair_bound(r[1], v[1], r[2], v[2], focal[members[1], members[2]]) + s0)
-    return best
+    best = max(best, p01 + s2)
+    best = max(best, p02 + s1)
+    return max(best, p12 + s0)
 
 
 @_jit
@@ -614,10 +623,7 @@ def _range_only_candidates(rs, vs, counts, gtx, grx, nu, area, starts, residual_
                         r[2], v[2] = rs[c, h], vs[c, h]
                     # nu = 2: no residual test (threshold inf: no bound exceeds it)
                     if nu == 3:  # _residual_lower_bound from its terms: the same operations, the same bits
-                        bound = sa[i] + sb[j] + sc[h]
-                        bound = max(bound, pab[i, j] + sc[h])
-                        bound = max(bound, pac[i, h] + sb[j])
-                        bound = max(bound, pbc[j, h] + sa[i])
+                        bound = _partition_bound(sa[i], sb[j], sc[h], pab[i, j], pac[i, h], pbc[j, h])
                         if bound > threshold:
                             continue  # no point of the area meets the ranges within the residual bound
                     for q in range(nu):
