@@ -91,29 +91,18 @@ def demonstrate(env_id: str, env_kwargs: dict[str, Any], scheduler: str, n_steps
     return Demonstrations(np.stack(obs_l), np.stack(act_l), np.stack(mask_l), np.asarray(rew_l), np.asarray(ep_l))
 
 
-def episode_returns(rewards: np.ndarray, episode: np.ndarray, gamma: float) -> np.ndarray:
-    """``(N,)`` the discounted return to each episode's end, G_t = r_t + gamma G_{t+1} (G = 0 after the last step)."""
-    out = np.empty_like(rewards, dtype=float)
-    bounds = np.flatnonzero(np.diff(episode)) + 1
-    for s in np.split(np.arange(rewards.size), bounds):  # a loop over episodes (tens), each one filter call
-        out[s] = lfilter([1.0], [1.0, -gamma], rewards[s][::-1])[::-1]
-    return out
-
-
 def running_returns(rewards: np.ndarray, episode: np.ndarray, gamma: float) -> np.ndarray:
     """``(N,)`` the running discounted return VecNormalize keeps for its reward scale, R_t = gamma R_{t-1} + r_t."""
     out = np.empty_like(rewards, dtype=float)
     bounds = np.flatnonzero(np.diff(episode)) + 1
-    for s in np.split(np.arange(rewards.size), bounds):
+    for s in np.split(np.arange(rewards.size), bounds):  # a loop over episodes (tens), each one filter call
         out[s] = lfilter([1.0], [1.0, -gamma], rewards[s])
     return out
 
 
-def _distribution(policy, obs: th.Tensor, masks: np.ndarray | None):
-    """The policy's action distribution at ``obs`` (masked for a maskable policy)."""
-    if masks is None:
-        return policy.get_distribution(obs)
-    return policy.get_distribution(obs, action_masks=masks)
+def episode_returns(rewards: np.ndarray, episode: np.ndarray, gamma: float) -> np.ndarray:
+    """``(N,)`` the discounted return to each episode's end, G_t = r_t + gamma G_{t+1}: the running return backwards."""
+    return running_returns(rewards[::-1], episode[::-1], gamma)[::-1].copy()  # contiguous (torch takes it)
 
 
 def warm_start(
@@ -182,7 +171,8 @@ def warm_start(
         if idx.size == 0:
             return float("nan")
         with th.no_grad():
-            dist = _distribution(policy, o[idx], demos.masks[idx] if maskable else None)
+            kw = {"action_masks": demos.masks[idx]} if maskable else {}
+            dist = policy.get_distribution(o[idx], **kw)
             mode = dist.mode().numpy().reshape(idx.size, -1)
         return float(np.mean(np.all(mode == demos.actions[idx].reshape(idx.size, -1), axis=1)))
 

@@ -61,6 +61,7 @@ from uwb_env.agents.storage import FolderLock, atomic_write, atomic_write_text, 
 from uwb_env.envs import ENV_IDS
 
 ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "a2c": A2C, "dqn": DQN, "maskable-ppo": MaskablePPO}
+ACTOR_CRITIC = ("ppo", "a2c", "maskable-ppo")  # the algorithms a behaviour-cloning warm start can fit (bc_steps)
 EVAL_SEED0 = 1_000_000  # evaluation seeds start here; training seeds are seed .. seed + n_envs - 1 (and resets)
 _CHECKPOINT = re.compile(r"rl_model_(\d+)_steps\.zip$")
 VEC_ENVS = ("dummy", "subproc", "batched")  # --vectorize / the preset's common.vec_env
@@ -354,6 +355,9 @@ def check_hyper(key: str, value: Any, preset_value: Any, algo: str) -> None:
         raise ValueError(f"--hyper {key}={value!r}: must be an integer >= 1")
     if key in ("learning_starts", "bc_steps") and (not is_int or value < 0):
         raise ValueError(f"--hyper {key}={value!r}: must be an integer >= 0")
+    if key == "bc_steps" and value > 0 and algo not in ACTOR_CRITIC:
+        raise ValueError(f"--hyper bc_steps={value}: the warm start needs an actor-critic algorithm "
+                         f"({', '.join(ACTOR_CRITIC)}), not {algo}")  # fmt: skip
     number = isinstance(value, int | float) and not isinstance(value, bool)
     if key in UNIT_INTERVAL and (not number or not 0.0 <= value <= 1.0):
         raise ValueError(f"--hyper {key}={value!r}: must be a number in [0, 1]")
@@ -612,10 +616,6 @@ def _train(cfg: TrainConfig, common: dict, hyper: dict, resume: bool, progress: 
             venv.close()
             raise ValueError(f"{cfg.algo} with hyper-parameters {hyper}: {type(e).__name__}: {e}") from e
     if restored is None and int(common.get("bc_steps", 0)) > 0:
-        if cfg.algo not in ("ppo", "a2c", "maskable-ppo"):
-            venv.close()
-            raise ValueError(f"--hyper bc_steps={common['bc_steps']}: the warm start needs an actor-critic "
-                             f"algorithm (ppo, a2c, maskable-ppo), not {cfg.algo}")  # fmt: skip
         behaviour_clone(model, venv, cfg, common)
     atomic_write_text(out / "run.yaml", meta)
     keep_rows_up_to(out / "progress.csv", "time/total_timesteps", steps)
