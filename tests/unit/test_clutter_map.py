@@ -140,8 +140,18 @@ def _episode(sensor: SignalSensor, seed: int):
     return sensor.new_episode(sample_truth(sensor.cfg, rngs.truth, sensor.layout), rngs)
 
 
+def test_through_wall_signal_path_defaults_to_the_still_couples_map():
+    """The scenario's chain counts the couples that have not moved (``through_wall.THROUGH_WALL_SIGNAL``)."""
+    sig = scenarios.get("through-wall").sensing.signal
+    assert sig.clutter_map is True and sig.clutter_map_count == "still"
+
+
+ALL = {"sensing.signal.clutter_map": True, "sensing.signal.clutter_map_count": "all"}
+"""Every couple counted (the tests of the map's update, which counts 1 per detection)."""
+
+
 def test_sensor_reads_the_map_before_the_scan_updates_it_and_resets_it_per_episode():
-    s = _through_wall(**{"sensing.signal.clutter_map": True})
+    s = _through_wall(**ALL)
     plan = ScanPlan.all_listening(0, s.n_tx, s.n_rx)
     floor = s.sig.false_position_density_per_m2
     ep = _episode(s, 43)
@@ -162,7 +172,7 @@ def test_sensor_reads_the_map_before_the_scan_updates_it_and_resets_it_per_episo
 
 
 def test_sensor_with_the_map_off_gives_the_constant_prior_and_the_same_positions():
-    off, on = _through_wall(), _through_wall(**{"sensing.signal.clutter_map": True})
+    off, on = _through_wall(**{"sensing.signal.clutter_map": False}), _through_wall(**ALL)
     plan = ScanPlan.all_listening(0, off.n_tx, off.n_rx)
     a, b = _episode(off, 7), _episode(on, 7)
     assert a.clutter_map is None

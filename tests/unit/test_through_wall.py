@@ -469,3 +469,57 @@ def test_parametric_through_wall_tracks_are_unbiased_down_range():
     assert abs(on.mean()) < 0.03
     off = down_range_means(scenarios.get("through-wall", **{"sensing.compensate_walls": False}))
     assert off.mean() > 0.15
+
+
+# ------------------------------------------------------------------------------------------ the tracker on persons
+def _position_nees(fidelity: str, seeds: range) -> np.ndarray:
+    """Position NEES (2 dof) of the confirmed tracks within 1.5 m of a person, every scan of ``seeds`` runs."""
+    from uwb_env.sensing.records import ScanPlan
+    from uwb_env.sim import Simulator
+
+    sim = Simulator(scenarios.get("through-wall", **{"sensing.fidelity": fidelity}))
+    out = []
+    for seed in seeds:
+        sim.reset(seed)
+        while not sim.done:
+            res = sim.step(ScanPlan.all_listening(0, 1, 2))
+            if len(res.tracks) == 0:
+                continue
+            truth = sim.truth.states[res.scan_index][:, [0, 2]]
+            x, P = res.tracks.combined()
+            c = np.flatnonzero(res.tracks.confirmed)
+            e = x[c][:, None, [0, 2]] - truth[None]  # (N, K, 2)
+            j = np.argmin(np.linalg.norm(e, axis=-1), axis=1)
+            e = e[np.arange(c.size), j]
+            near = np.linalg.norm(e, axis=-1) < 1.5
+            Pp = P[c][:, [0, 2]][:, :, [0, 2]]
+            out.append(np.einsum("ni,nij,nj->n", e, np.linalg.inv(Pp), e)[near])
+    return np.concatenate(out)
+
+
+@pytest.mark.parametrize("fidelity", ["signal", "parametric"])
+def test_person_tracks_are_consistent_in_the_median(fidelity):
+    """With a walking person's NCV acceleration std (``through_wall.PERSON_ACCEL_STD_MPS2`` = 2 m/s^2) the confirmed
+    tracks' position NEES has the median of chi^2 with 2 dof, 1.386, within [1.0, 2.1] (4 runs, ~800 scans of tracks;
+    measured 1.52 signal / 1.59 parametric). Seed 003's 0.5 m/s^2 gave 3.2: tracks fell behind a person turning
+    back (2.5 m/s^2 for 1 s) and were held overconfident. The median, not the mean: the body's range errors are
+    heavy-tailed (the limbs' leading edges), so the mean is 3-5 with either value."""
+    from uwb_env.scenarios.through_wall import PERSON_ACCEL_STD_MPS2
+
+    ncv = [m for m in scenarios.get("through-wall").tracker.models if m.kind == "ncv"]
+    assert [m.accel_noise_std_mps2 for m in ncv] == [PERSON_ACCEL_STD_MPS2] == [2.0]
+    nees = _position_nees(fidelity, range(4))
+    assert nees.size > 600
+    assert 1.0 < np.median(nees) < 2.1, np.median(nees)
+
+
+@pytest.mark.slow
+def test_seed001_check_on_fresh_runs():
+    """Issue 18's check on runs it was not tuned on (seeds 300-319): the scenario's chain (association and the still
+    couples' clutter map) has no ghost track in >= 90 % of the runs and holds both persons (>= 50 % of their scans
+    each) in >= 90 % (measured on runs 0-299: 100 % / 99-100 %; the seed's chain without the map 91-94 % / 99-100 %)."""
+    from uwb_env.agents.studies.seed001_through_wall import DEFAULT_CHAIN, run
+
+    rec = [run(seed, {}, chains=(DEFAULT_CHAIN,))[DEFAULT_CHAIN] for seed in range(300, 320)]
+    assert np.mean([r["ghost_tracks"] == 0 for r in rec]) >= 0.9
+    assert np.mean([r["both_tracked"] for r in rec]) >= 0.9

@@ -13,7 +13,7 @@ ENV_IDS = {
         "subset_size": 3,
         "receiver_warmup": True,
     },
-    "uwb_env/ThroughWall-v2": {"scenario": "through-wall", "action_kind": "waveform"},
+    "uwb_env/ThroughWall-v3": {"scenario": "through-wall", "action_kind": "waveform"},
     "uwb_env/UrbanDistributed-v0": {
         "scenario": "urban-distributed",
         "action_kind": "per-tx",
@@ -36,12 +36,17 @@ slots are relative to the nodes (``track_frame="relative"``, ``uwb_env.envs.rela
 ``IndoorSubsetWarmup-v1`` is the scenario where one-step lookahead is short-sighted (receiver warm-up,
 ``uwb_env.envs.scheduling``).
 
-``ThroughWall-v2`` is seed 001's handheld radar (one transmitter between two receivers, 0.24 m before a 24 cm brick
+``ThroughWall-v3`` is seed 001's handheld radar (one transmitter between two receivers, 0.24 m before a 24 cm brick
 wall, two persons behind it; ``uwb_env.scenarios.through_wall``): the action is the number of M-sequence periods
 averaged per impulse response (``Discrete(3)``); its signal path is the seed's chain (exponential-averaging
 background, advance normalization, CFAR, ToA association, wall compensation, two-ellipse intersection).
 
 Version history:
+    * ``ThroughWall-v3`` (issue 18): the tracker's NCV acceleration std is a walking person's, 2 m/s^2 (was seed
+      003's 0.5 m/s^2: tracks fell behind a person turning back and were held > 1 m off,
+      ``through_wall.PERSON_ACCEL_STD_MPS2``), and the signal path's clutter intensity is a clutter map of the couples
+      that have not moved (``SignalConfig.clutter_map_count = "still"``: the static paths' residue no longer confirms
+      ghost tracks). Dynamics and rewards changed (both fidelities), spaces unchanged, hence the bump.
     * ``ThroughWall-v2``: the parametric detector is the chain's interval ToA test's: Pfa the binomial tail
       P(Bin(15, 1e-2) >= 4) = 1.25e-5 per window (``through_wall.interval_test_pfa``; was the CFAR's per-sample
       1e-2) and Swerling I persons in the parametric detection test only (``SensingConfig.detection_swerling``; the
