@@ -23,8 +23,8 @@ Per realisation and experiment:
 
 A missed detection (no k_hat) is scored as the window's end, k_hat = 40 (counted in the table).
 
-Run: python scripts/seed004_hmm.py [--realisations 20] [--reverb-scale 1] [--clutter-scale 1] [--gain-drift-db 0.03]
-     [--inroom-clutter 0] [--out results/seed004]
+Run: python scripts/seed004_hmm.py [--realisations 20] [--seed0 0] [--reverb-scale 1] [--clutter-scale 1]
+     [--gain-drift-db 0.03] [--inroom-clutter 0] [--out results/seed004]
 (sensitivity knobs: they scale the person's room-multipath tail and the outside clutter-change rate, set the
 session gain drift and the rate of in-room changes per session; the physics they act on is cir.py's docstring).
 
@@ -196,6 +196,7 @@ def main() -> None:
     """Run the realisations, write summary.md and the figures."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--realisations", type=int, default=20)
+    ap.add_argument("--seed0", type=int, default=0, help="the first realisation's seed (seed0 ... seed0 + N - 1)")
     ap.add_argument("--reverb-scale", type=float, default=1.0, help="multiplies the person's reverberant share")
     ap.add_argument("--clutter-scale", type=float, default=1.0, help="multiplies the clutter-change rate")
     ap.add_argument("--gain-drift-db", type=float, default=CFG.gain_drift_db, help="session gain drift std [dB]")
@@ -203,18 +204,23 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1))
     ap.add_argument("--out", default="results/seed004")
     args = ap.parse_args()
+    if args.realisations < 1 or args.seed0 < 0:
+        raise SystemExit(f"--realisations={args.realisations}, --seed0={args.seed0}: must be >= 1 and >= 0")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    seeds = list(range(args.realisations))
+    seeds = list(range(args.seed0, args.seed0 + args.realisations))
     with ProcessPoolExecutor(args.workers) as pool:
         knobs = Knobs(args.reverb_scale, args.clutter_scale, args.gain_drift_db, args.inroom_clutter)
         runs = list(pool.map(run_realisation, seeds, [knobs] * len(seeds)))
     cat = {exp: {key: np.concatenate([r[exp][key] for r in runs], axis=-1) for key in runs[0][exp] if
                  not key.startswith(("loglik", "ftc sq"))} for exp in EXPERIMENTS}  # fmt: skip
     lines = [
-        f"# Seed 004: HMM bistatic-delay estimation on simulated cluttered CIRs ({args.realisations} realisations)",
+        f"# Seed 004: HMM bistatic-delay estimation on simulated cluttered CIRs ({args.realisations} realisations, "
+        f"seeds {seeds[0]}-{seeds[-1]})",
         "",
-        f"Command: `python scripts/seed004_hmm.py --realisations {args.realisations} --reverb-scale "
+        f"Command: `python scripts/seed004_hmm.py --realisations {args.realisations}"
+        + (f" --seed0 {args.seed0}" if args.seed0 else "")
+        + f" --reverb-scale "
         f"{args.reverb_scale:g} --clutter-scale {args.clutter_scale:g} --gain-drift-db {args.gain_drift_db:g} "
         f"--inroom-clutter {args.inroom_clutter:g} --out {out}`",
         "",
