@@ -100,10 +100,22 @@ def test_vs_imm_tracks_the_turning_target_closer_than_a_single_ncv_filter():
     assert np.mean(np.abs(imm[both])) <= 0.8 * np.mean(np.abs(ncv[both]))
 
 
+WITH_AZIMUTH = {"sensing.measure_doa": True}
+"""Issue 3's measurement set: each receiver's array also measures the azimuth. The scenario's default became seed
+003's (range + range-rate only, SNR 0.2) later (issue 15), under which the two tests below measure something else:
+the compact node (transmitter and both receivers within 12 m, nearly on one line) has ellipses symmetric about that
+line, so range-only initiation also confirms the mirror image of a vehicle (11-40 m off, 3-99 scans: 0.30 false
+tracks per run over runs 0-39, 0.05 with azimuth), and the eastbound vehicle of ``urban-crossing`` is held in 0-32 %
+of the scans before the crossing, so its identity count there is about detection (kept in 60 % of runs 0-29; no
+swap). The mirror tracks are what a tracker Pd with the receive arrays' angular gain (behind the array Pd ~ 0) would
+refuse; that is not built."""
+
+
 @pytest.mark.slow
 def test_urban_tracking_monte_carlo_100_runs():
-    """Issue 3: both targets confirmed in >= 90 % of 100 runs, < 0.1 false confirmed tracks per run."""
-    cfg = scenarios.get("urban-intersection")
+    """Issue 3: both targets confirmed in >= 90 % of 100 runs, < 0.1 false confirmed tracks per run (measured 100 %,
+    0.07), on issue 3's measurement set (``WITH_AZIMUTH``)."""
+    cfg = scenarios.get("urban-intersection", **WITH_AZIMUTH)
     sim = Simulator(cfg)
     pol = round_robin(sim.sensor)
     accs = [run_episode(sim, seed, pol) for seed in range(100)]
@@ -113,7 +125,9 @@ def test_urban_tracking_monte_carlo_100_runs():
 
 @pytest.mark.slow
 def test_crossing_targets_keep_their_identities_100_runs():
-    cfg = scenarios.get("urban-crossing")
+    """The track holding each vehicle before the crossing holds it after, in >= 90 % of 100 runs (measured 100 %),
+    on issue 3's measurement set (``WITH_AZIMUTH``)."""
+    cfg = scenarios.get("urban-crossing", **WITH_AZIMUTH)
     sim = Simulator(cfg)
     pol = round_robin(sim.sensor)
     kept = []
