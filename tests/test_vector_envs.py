@@ -6,7 +6,9 @@ so a vector env can stack it: before, ``position_errors_m`` changed length from 
 ("could not broadcast input array from shape (0,) into shape (1,)"), and the async env then hung in ``close()``.
 
 Each case plays ``TOTAL_STEPS`` env steps per id, split across ``NUM_ENVS`` envs (several autoresets: the episodes are
-61 and 140 scans), and checks finite observations inside the space, finite rewards and the info's shapes.
+61 to 140 scans), and checks finite observations inside the space, finite rewards and the info's shapes. The
+async cases stop earlier (``test_gymnasium_vector_envs_run_2000_steps``); the SB3 subprocess case runs by default on
+two ids (``SUBPROC_BY_DEFAULT``), on the others it is ``slow``.
 """
 
 from __future__ import annotations
@@ -27,6 +29,12 @@ gym.register_envs(uwb_env)
 TOTAL_STEPS = 2000
 NUM_ENVS = 4
 IDS = sorted(ENV_IDS)
+# SB3's SubprocVecEnv by default on a plain id (the largest info, Discrete(64) with masks) and a scene-family id (its
+# own entry point); ~9 s a case, ~6 s of it the two workers' fresh interpreters importing the package, SB3 and torch.
+SUBPROC_BY_DEFAULT = ("uwb_env/UrbanDistributed-v0", "uwb_env/UrbanWidebandFamily-v0")
+# Steps an async case plays after every env has ended an episode: the autoreset (SAME_STEP: final_obs / final_info),
+# the reset step (NEXT_STEP) and a step of the next episode.
+ASYNC_STEPS_AFTER_THE_EPISODE_ENDS = 2
 
 
 @contextlib.contextmanager
@@ -83,6 +91,11 @@ def _check_vector_info(info: dict, ref: dict, n: int) -> None:
 @pytest.mark.parametrize("mode", ["sync", "async"])
 @pytest.mark.parametrize("env_id", IDS)
 def test_gymnasium_vector_envs_run_2000_steps(env_id, mode, autoreset_mode):
+    """sync: TOTAL_STEPS steps. async: the same episodes (the same reset seeds and sampled actions, measured equal
+    step by step), so its per-step checks would repeat the sync case's on the same data; what it adds is the worker
+    processes, the shared-memory observations and the pickled infos of a step, a reset and an autoreset, so it stops
+    ASYNC_STEPS_AFTER_THE_EPISODE_ENDS steps after every env has ended an episode (one 61-140-scan episode each: was
+    TOTAL_STEPS too, 2-5.5 s a case, now 0.7-2 s)."""
     ref = _reference_info(env_id)
     with time_limit(240):
         envs = gym.make_vec(
@@ -92,7 +105,7 @@ def test_gymnasium_vector_envs_run_2000_steps(env_id, mode, autoreset_mode):
             obs, info = envs.reset(seed=list(range(NUM_ENVS)))
             _check_vector_info(info, ref, NUM_ENVS)
             envs.action_space.seed(0)
-            n_done = 0
+            n_done, ended, after = 0, np.zeros(NUM_ENVS, bool), 0
             for _ in range(TOTAL_STEPS // NUM_ENVS):
                 obs, reward, terminated, truncated, info = envs.step(envs.action_space.sample())
                 assert envs.observation_space.contains(obs)
@@ -101,13 +114,29 @@ def test_gymnasium_vector_envs_run_2000_steps(env_id, mode, autoreset_mode):
                 _check_vector_info(info, ref, NUM_ENVS)
                 assert not terminated.any()  # the scenario's horizon truncates (Gymnasium convention)
                 n_done += int(truncated.sum())
+                if mode == "async" and ended.all():
+                    after += 1
+                    if after == ASYNC_STEPS_AFTER_THE_EPISODE_ENDS:
+                        break
+                ended |= truncated
             assert n_done >= NUM_ENVS  # every env ran past at least one episode end
         finally:
             envs.close()
 
 
-@pytest.mark.parametrize("vec_kind", ["dummy", "subproc"])
-@pytest.mark.parametrize("env_id", IDS)
+def _sb3_cases():
+    """Every id with DummyVecEnv; with SubprocVecEnv on SUBPROC_BY_DEFAULT's ids, ``slow`` on the others. A slow case
+    is covered by the default run's ``[<its id>-dummy]`` (the id's envs, steps and infos), the ``-subproc`` cases of
+    SUBPROC_BY_DEFAULT (the worker processes and pipes) and
+    test_imports.py::test_gymnasium_make_finds_every_registered_id (every id made by ``"uwb_env:<id>"`` in a fresh
+    interpreter)."""
+    for env_id in IDS:
+        yield pytest.param(env_id, "dummy", id=f"{env_id}-dummy")
+        slow = () if env_id in SUBPROC_BY_DEFAULT else (pytest.mark.slow,)
+        yield pytest.param(env_id, "subproc", marks=slow, id=f"{env_id}-subproc")
+
+
+@pytest.mark.parametrize(("env_id", "vec_kind"), list(_sb3_cases()))
 def test_sb3_vector_envs_run_2000_steps(env_id, vec_kind):
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
