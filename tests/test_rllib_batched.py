@@ -7,6 +7,7 @@ rewards, terminations, truncations, NEXT_STEP autoreset), and PPO trains an iter
 
 from __future__ import annotations
 
+import copy
 import csv
 
 import numpy as np
@@ -19,6 +20,7 @@ pytest.importorskip("ray.rllib")
 from test_rllib import MASKED_ID, MASKED_KWARGS, TINY  # the RLlib tests' tiny run and masked env
 
 import uwb_env  # noqa: F401
+from uwb_env.agents.rl import rllib_engine
 from uwb_env.agents.rl.rllib_engine import (
     MaskedUWBEnv,
     MaskedUWBVectorEnv,
@@ -27,6 +29,7 @@ from uwb_env.agents.rl.rllib_engine import (
     masked_uwb_env,
     resolve_rllib,
     rllib_checkpoints,
+    sampled_steps,
     train_rllib,
 )
 
@@ -74,32 +77,47 @@ def test_bad_vectorize_is_named(tmp_path):
     assert not (tmp_path / "r").exists()
 
 
-def test_the_runners_step_the_batched_vector_env(tmp_path, local_ray):
-    cfg = RLlibTrainConfig(env_id=MASKED_ID, algo="ppo", timesteps=128, out=tmp_path / "a", seed=2,
-                           env_kwargs=MASKED_KWARGS, overrides=TINY, env_runners=1, envs_per_runner=2,
-                           vectorize="batched")  # fmt: skip
+@pytest.fixture(scope="module")
+def batched_run(tmp_path_factory, local_ray):
+    """One PPO iteration of ``train_rllib`` on 1 runner x 2 batched envs, with what its runner held and the
+    iteration's result (read by a spy on ``sampled_steps``, which the training loop calls with each result).
+
+    Shared by the two tests below: each built and trained its own algorithm before (~6 s a build on two busy cores,
+    the first test's by ``build_config(...).build_algo()``, the call ``train_rllib`` makes).
+    """
+    cfg = RLlibTrainConfig(env_id=MASKED_ID, algo="ppo", timesteps=128, out=tmp_path_factory.mktemp("batched") / "run",
+                           seed=3, env_kwargs=MASKED_KWARGS, overrides=TINY, env_runners=1, envs_per_runner=2,
+                           checkpoint_every=1, vectorize="batched")  # fmt: skip
+    seen = []
+
+    def spy(algo, result=None):
+        if result is not None:
+            kinds = algo.env_runner_group.foreach_env_runner(
+                lambda r: (type(r.env.unwrapped).__name__, r.num_envs), local_env_runner=False
+            )
+            seen.append((kinds, result))
+        return sampled_steps(algo, result)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(rllib_engine, "sampled_steps", spy)
+        algo = train_rllib(copy.copy(cfg), progress=False)
+    return cfg, algo, seen
+
+
+def test_the_runners_step_the_batched_vector_env(batched_run):
+    cfg, _, seen = batched_run
     config = build_config(cfg, resolve_rllib(cfg))
     assert config.gym_env_vectorize_mode == "vector_entry_point"
-    algo = config.build_algo()
-    try:
-        kinds = algo.env_runner_group.foreach_env_runner(
-            lambda r: (type(r.env.unwrapped).__name__, r.num_envs), local_env_runner=False
-        )
-        assert kinds == [("MaskedUWBVectorEnv", 2)]
-        result = algo.train()
-        runners = result["env_runners"]
-        assert runners["num_env_steps_sampled_lifetime"] >= 128
-        assert np.isfinite(result["learners"]["default_policy"]["total_loss"])
-    finally:
-        algo.stop()
+    [(kinds, result)] = seen  # one iteration
+    assert kinds == [("MaskedUWBVectorEnv", 2)]
+    runners = result["env_runners"]
+    assert runners["num_env_steps_sampled_lifetime"] >= 128
+    assert np.isfinite(result["learners"]["default_policy"]["total_loss"])
 
 
-def test_ppo_trains_an_iteration_with_vectorize_batched(tmp_path, local_ray):
-    out = tmp_path / "run"
-    cfg = RLlibTrainConfig(env_id=MASKED_ID, algo="ppo", timesteps=128, out=out, seed=3, env_kwargs=MASKED_KWARGS,
-                           overrides=TINY, env_runners=1, envs_per_runner=2, checkpoint_every=1,
-                           vectorize="batched")  # fmt: skip
-    algo = train_rllib(cfg, progress=False)
+def test_ppo_trains_an_iteration_with_vectorize_batched(batched_run):
+    cfg, algo, _ = batched_run
+    cfg, out = copy.copy(cfg), cfg.out
     assert algo.iteration == 1 and [i for i, _ in rllib_checkpoints(out)] == [1]
     run = yaml.safe_load((out / "run.yaml").read_text())
     assert run["vectorize"] == "batched" and run["envs_per_runner"] == 2
