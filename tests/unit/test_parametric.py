@@ -34,12 +34,10 @@ def test_empirical_detection_rate_matches_pd(swerling, power_dbm):
     sensor, ep, out = run(cfg, 11, [plan])
     for r in range(2):
         hits = sum(int((d[r].origin == 0).sum()) for d in out)
-        p = np.array(
-            [
-                detection_probability(sensor.mean_snr(ep.geometry, k, plan)[0, r, 0], 1e-3, swerling)
-                for k in range(1, cfg.n_scans + 1)
-            ]
-        )
+        # every scan's Pd in one call (as in the tests below): the same numbers as scan by scan (Swerling III: within
+        # 1 ulp; the sums the check reads are equal), 4.4 s -> 1 s for Swerling 0
+        snr = np.array([sensor.mean_snr(ep.geometry, k, plan)[0, r, 0] for k in range(1, cfg.n_scans + 1)])
+        p = detection_probability(snr, 1e-3, swerling)
         assert 0.1 < p.mean() < 0.97, "the check must be informative"
         assert abs(hits - p.sum()) < 4 * math.sqrt((p * (1 - p)).sum())
 
