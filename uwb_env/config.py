@@ -544,6 +544,10 @@ class ImpulseWaveformConfig:
     detector's SNR gain (Pd only), added to ``SensingConfig.detection_gain_db``: an energy detector accumulates its
     ``n_pulses`` pulses non-coherently, a loss against the coherent square-law test that depends on the pulses
     (calibrated by ``scripts/calibrate_parametric.py --gain-per-waveform``); in [-30, 10] dB, 0 by default.
+    ``false_alarm_factor``: this waveform's parametric false-alarm density over ``ClutterConfig.density_per_m2``
+    (times the bandwidth rule's, ``uwb_env.sensing.parametric.false_alarm_scale``): where a chain's false detections
+    are the static background's residues, whose power is the waveform's energy, they grow with the pulses integrated
+    (through-wall: fitted on seed 001's chain by ``scripts/calibrate_through_wall.py``); in (0, 100], 1 by default.
     """
 
     kind: ClassVar[str] = "impulse"
@@ -555,10 +559,12 @@ class ImpulseWaveformConfig:
     toa_error_model: Literal["crlb", "energy_detector"] = "crlb"
     energy_detector: EnergyDetectorToaConfig = field(default_factory=EnergyDetectorToaConfig)
     detection_gain_db: float = 0.0
+    false_alarm_factor: float = 1.0
 
     def __post_init__(self) -> None:
         _name("ImpulseWaveformConfig", self.name)
         _in_range("ImpulseWaveformConfig", "detection_gain_db", self.detection_gain_db, -30.0, 10.0)
+        _in_range("ImpulseWaveformConfig", "false_alarm_factor", self.false_alarm_factor, 0.0, 100.0, closed="(]")
         _positive("ImpulseWaveformConfig", "center_freq_hz", self.center_freq_hz)
         _positive("ImpulseWaveformConfig", "bandwidth_hz", self.bandwidth_hz)
         if self.bandwidth_hz >= 2 * self.center_freq_hz:

@@ -33,7 +33,8 @@ holds within ``--max-dpd``, the default, or the largest |Pd difference|) over th
 cells: one Pfa and residue for all, one gain per waveform. ``--compare`` fits a second form (by default the previous
 one, Swerling III at the CFAR's Pfa 1e-2) on the same cells and reports both forms' likelihoods. ``--cells`` keeps the
 signal path's cells in a file (they do not depend on the parametric constants) for the next run. The false rate per scan
-and pair gives ``clutter.density_per_m2`` (the parametric false count is density x the pair's gate area, linear in it).
+and pair gives ``clutter.density_per_m2`` from the first waveform's and each waveform's ``false_alarm_factor`` over it
+(the parametric false count is density x factor x the pair's gate area, linear in both).
 
 The check: parametric and signal Pd within 0.05 (every populated bin), false rates within 20 %, range spread within
 30 % (the parametric independent std against the chain's per-receiver total, hypot(independent, common): the
@@ -441,13 +442,12 @@ def main() -> None:
         )
         for w in range(W)
     ]
-    # the clutter density that gives the signal's mean false rate at the scenario's power (linear in the density)
-    # one density for every waveform (the parametric false alarms are drawn once for all of them): the false rate
-    # whose largest relative error over the waveforms' signal rates is smallest, 2 lo hi / (lo + hi)
-    lo, hi = min(s_false.values()), max(s_false.values())
-    s_nominal = 2.0 * lo * hi / (lo + hi)
-    scale = s_nominal / float(np.mean(list(p_false.values())))
-    density = cfg.sensing.clutter.density_per_m2 * scale
+    # the false rates at the scenario's power, linear in the density x each waveform's false_alarm_factor: the density
+    # that gives the first waveform's (the reference) and each other waveform's factor over it
+    # (ImpulseWaveformConfig.false_alarm_factor: the chain's false ToAs grow with the waveform's energy)
+    ratio = {w: s_false[w] / p_false[w] for w in range(W)}
+    density = cfg.sensing.clutter.density_per_m2 * ratio[0]
+    factors = [getattr(cfg.waveforms[w], "false_alarm_factor", 1.0) * ratio[w] / ratio[0] for w in range(W)]
 
     # parametric Pd as simulated (the scenario's constants), per bin of the same edges
     lines = [
@@ -500,10 +500,12 @@ def main() -> None:
         + f" (the signal's chance hits in the {2 * GATE_M:g} m gate, removed from its Pd: up to "
         + ", ".join(f"{f0[w].max():.3f}" for w in range(W))
         + ")",
-        f"* one false rate for the three waveforms (the parametric false alarms do not depend on the waveform), the "
-        f"one nearest all of the signal's in relative terms: {s_nominal:.3f} per scan and receiver, "
-        f"sensing.clutter.density_per_m2 = {density:.4g} (scenario's: "
-        f"{cfg.sensing.clutter.density_per_m2:g})",
+        f"* the false rates fitted per waveform: sensing.clutter.density_per_m2 = {density:.4g} ({names[0]}'s; "
+        f"scenario's: {cfg.sensing.clutter.density_per_m2:g}), false_alarm_factor "
+        + ", ".join(
+            f"{names[w]} {factors[w]:.3g} (scenario's {getattr(cfg.waveforms[w], 'false_alarm_factor', 1.0):g})"
+            for w in range(W)
+        ),
     ]
     pe = paired(functools.reduce(operator.iadd, (sig[w] for w in range(W)), []))
     qe = paired(functools.reduce(operator.iadd, (par[w] for w in range(W)), []))
@@ -544,8 +546,7 @@ def main() -> None:
         f"over bins of >= {MIN_CELLS} cells: " + ", ".join(f"{names[w]} {sim_worst[w]:.3f}" for w in range(W))
     )
     false_ok = all(abs(p_false[w] - s_false[w]) <= 0.2 * s_false[w] for w in range(W))
-    fit_false = {w: p_false[w] * scale for w in range(W)}
-    fit_ok = all(abs(fit_false[w] - s_false[w]) <= 0.2 * s_false[w] for w in range(W))
+    rel = [100.0 * (p_false[w] / s_false[w] - 1.0) for w in range(W)]
     spread_ok = abs(q_tot - s_tot) <= 0.3 * s_tot
     if args.tracker_runs > 0:  # 0: no tracker check (a refit's quick look)
         trk = tracker_check(args.tracker_runs, 0)
@@ -559,9 +560,9 @@ def main() -> None:
         "",
         "Check (parametric and signal Pd within 0.05, false rates within 20 %, spread within 30 %): "
         f"Pd {'holds' if pd_ok else 'fails'} (fitted, largest {worst:.3f}); false rates with the scenario's density "
-        f"{'hold' if false_ok else 'fail'} (with the fitted density: "
-        + ", ".join(f"{names[w]} {100 * (fit_false[w] / s_false[w] - 1):+.0f} %" for w in range(W))
-        + f", {'hold' if fit_ok else 'fail'}); spread {'holds' if spread_ok else 'fails'} "
+        f"{'hold' if false_ok else 'fail'} ("
+        + ", ".join(f"{names[w]} {rel[w]:+.0f} %" for w in range(W))
+        + f"); spread {'holds' if spread_ok else 'fails'} "
         f"({q_tot:.3f} vs {s_tot:.3f} m, {100 * (q_tot / s_tot - 1):+.0f} %).",
         "",
         "| waveform | SNR bin [dB] | cells | Pd signal | Pd parametric (fitted) | Pd parametric (simulated) |",

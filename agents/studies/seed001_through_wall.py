@@ -34,12 +34,14 @@ Per run and chain:
   its stillness rule completed into ghost tracks: ``toa_association.associate_toas``).
 
 The check (issue 18): with association, 0 ghost tracks in at least 90 % of the runs and both persons tracked (in at
-least 90 % of the runs), read on the seed's chain and on the scenario's default (``DEFAULT_CHAIN``).
+least 90 % of the runs), read on the seed's chain, the scenario's default (``DEFAULT_CHAIN``), and with the still
+couples' clutter map (``STILL_MAP_CHAIN``, ThroughWall-v3's default).
 
 Run: python scripts/seed001_through_wall.py [--runs 20] [--seed0 0] [--workers 1] [--set key=value ...]
 [--out results/seed001]
-(``--calibrate RUNS``: only the range-error model's measurement, ``calibrate``; ``--rooms N``: only the check in the
-rooms 0..N-1, ``rooms_check``, rooms.md)
+(``--calibrate RUNS``: only the range-error model's measurement, ``calibrate``; ``--rooms N [--room0 R]``: only the
+check in the rooms R..R+N-1, ``rooms_check``, rooms.md; with ``--alphas A ...`` the check per exponential-averaging
+factor, ``alpha_sweep``, alphas.md)
 Writes summary.md (ours beside the seed's), summary.csv (its numbers per chain), runs.csv (one row per run and chain),
 radargrams.png (Figs. 5e-f / 6a-d-like: background-subtracted, normalized scans and CFAR outputs), toa_association.png
 (Fig. 6e-f-like: the potential simple targets and the associated couples) and positions_tracks.png (Fig. 7-like:
@@ -50,6 +52,7 @@ from __future__ import annotations
 
 import argparse
 import ast
+import dataclasses
 import os
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -62,6 +65,7 @@ from uwb_env.config import ScenarioConfig
 from uwb_env.constants import SPEED_OF_LIGHT_MPS
 from uwb_env.localization.couples import array_frame, couple_positions
 from uwb_env.metrics import TrackAccounting
+from uwb_env.scenarios import through_wall
 from uwb_env.sensing.records import ScanPlan
 from uwb_env.sim import Simulator
 
@@ -104,28 +108,62 @@ CHAINS = {
     },
 }
 """The chains compared: name -> overrides of the scenario's signal path."""
-DEFAULT_CHAIN = "association + clutter map of still couples"
-"""The scenario's own signal path (``through_wall.THROUGH_WALL_SIGNAL``): the seed's chain, still couples' map."""
-ROOM_CHAINS = ("association", DEFAULT_CHAIN)
-"""``--rooms``: the seed's chain and the scenario's."""
+DEFAULT_CHAIN = "association"
+"""The scenario's own signal path (``through_wall.THROUGH_WALL_SIGNAL``): the seed's chain (ThroughWall-v4; v3 added
+the still couples' clutter map, ``STILL_MAP_CHAIN``)."""
+STILL_MAP_CHAIN = "association + clutter map of still couples"
+"""The seed's chain and a clutter map of the couples that have not moved (the scenario's default in ThroughWall-v3)."""
+ROOM_CHAINS = (DEFAULT_CHAIN, STILL_MAP_CHAIN)
+"""``--rooms``: the scenario's (the seed's) chain and with the still couples' map."""
 CHECK_FRACTION = 0.9
 """Issue 18's check: no ghost track in, and both persons tracked in, at least this fraction of the runs."""
 TITLES = {
-    "association": "association (seed 001, steps 1-7)",
+    "association": "association (seed 001, steps 1-7: the scenario's default)",
     "association without step 6": "association without step 6",
     "no association": "no association (every Rx1 x Rx2 couple)",
     "association + clutter map": "association + clutter map (every couple counted)",
-    "association + clutter map of still couples": "association + clutter map (still couples counted: the scenario's "
-    "default)",
+    "association + clutter map of still couples": "association + clutter map (still couples counted)",
     "association + clutter map of unassociated detections": "association + clutter map (each couple x its clutter "
     "probability, Musicki)",
 }
 """The chains' column titles in summary.md."""
 
 
+WALK_SETS = {
+    "scenario": through_wall.WALKS,
+    "mirrored": tuple(((-s[0], s[1]), (-e[0], e[1])) for s, e in through_wall.WALKS),
+    "tangential": (((-1.8, 2.4), (1.2, 2.6)), ((1.8, 4.6), (-1.2, 4.4))),
+}
+"""The persons' walks, (start, far end) each (``--set walks=NAME``, the study's key): the scenario's (radial: towards
+and away from the array), mirrored left-right (the turns too; the room's paths are not mirrored), or across the array's
+view (3 m walks at 2.5 m and 4.5 m, bistatic range-rates within +-0.6 m/s)."""
+
+
+def with_walks(cfg: ScenarioConfig, walks: str) -> ScenarioConfig:
+    """``cfg`` with the persons on ``WALK_SETS[walks]`` (there and back at ``through_wall.SPEED_MPS``)."""
+    if walks not in WALK_SETS:
+        raise ValueError(f"walks = {walks!r}: must be one of {sorted(WALK_SETS)}")
+    if walks == "scenario":
+        return cfg
+    sign = -1.0 if walks == "mirrored" else 1.0
+    targets = []
+    for target, (start, end) in zip(cfg.targets, WALK_SETS[walks], strict=True):  # persons: two
+        path = through_wall.there_and_back(start, end)
+        turns = tuple(dataclasses.replace(m, turn_rate_rps=sign * m.turn_rate_rps) for m in path.segments)
+        targets.append(dataclasses.replace(target, trajectory=dataclasses.replace(path, segments=turns)))
+    longest = max(float(np.hypot(e[0] - s[0], e[1] - s[1])) for s, e in WALK_SETS[walks])
+    n_scans = round((2.0 * longest / through_wall.SPEED_MPS + through_wall.TURN_S) / through_wall.SCAN_PERIOD_S)
+    return dataclasses.replace(cfg, targets=tuple(targets), n_scans=n_scans)
+
+
 def scenario(chain: str, overrides: dict[str, Any]) -> ScenarioConfig:
-    """The through-wall scenario on its signal path with ``chain``'s association (``CHAINS``) and ``overrides``."""
-    return scenarios.get("through-wall", **{"sensing.fidelity": "signal", **CHAINS[chain], **overrides})
+    """The through-wall scenario on its signal path with ``chain``'s association (``CHAINS``) and ``overrides``.
+
+    ``overrides["walks"]`` (the study's key, not the scenario's): the persons' walks, ``WALK_SETS``.
+    """
+    rest = {k: v for k, v in overrides.items() if k != "walks"}
+    cfg = scenarios.get("through-wall", **{"sensing.fidelity": "signal", **CHAINS[chain], **rest})
+    return with_walks(cfg, str(overrides.get("walks", "scenario")))
 
 
 def _array(cfg: ScenarioConfig) -> tuple[np.ndarray, np.ndarray]:
@@ -439,7 +477,7 @@ def _clutter_map_note(cfg: ScenarioConfig, aggs: dict[str, dict[str, float]]) ->
     a, m, st, un = (
         aggs["association"],
         aggs["association + clutter map"],
-        aggs[DEFAULT_CHAIN],
+        aggs[STILL_MAP_CHAIN],
         aggs["association + clutter map of unassociated detections"],
     )
     cells = [f"{x['zero_ghost_tracks']:.0%} / {x['both']:.0%} / {x['coverage']:.1%}" for x in (a, m, st, un)]
@@ -448,8 +486,9 @@ def _clutter_map_note(cfg: ScenarioConfig, aggs: dict[str, dict[str, float]]) ->
         f"{sig.clutter_map_cell_m} m, the position detections per scan averaged over a memory of "
         f"{sig.clutter_map_memory_scans:.0f} scans, floored at the prior {sig.false_position_density_per_m2} per m^2, "
         "read before each scan updates it, empty every episode): runs without a ghost track / both persons tracked / "
-        f"scans a person is held {cells[0]} without the map (the seed's chain), {cells[2]} counting the couples that "
-        f"have not moved (the scenario's default), {cells[1]} counting every couple, {cells[3]} with Musicki's "
+        f"scans a person is held {cells[0]} without the map (the seed's chain, the scenario's default), {cells[2]} "
+        f"counting the couples that have not moved (ThroughWall-v3's default), {cells[1]} counting every couple, "
+        f"{cells[3]} with Musicki's "
         "a-posteriori weights. The exponential background passes the fluctuation of the room's static paths, whose "
         "couples come back at one spot in bursts of a few scans, enough to confirm a ghost track; a walking person "
         "moves about one range sample a scan and does not feed the still couples' map. Counting every couple "
@@ -472,8 +511,38 @@ def check_holds(zero_ghost_runs: float, both_runs: float) -> bool:
     return zero_ghost_runs >= CHECK_FRACTION and both_runs >= CHECK_FRACTION
 
 
+def _rooms(
+    pool: ProcessPoolExecutor, rooms: range, seeds: list[int], overrides: dict[str, Any]
+) -> list[dict[str, tuple[float, float, float]]]:
+    """Per room of ``rooms``: chain -> (runs without a ghost track, runs with both persons tracked, median RMSE)."""
+    out = []
+    for room in rooms:  # rooms: a few
+        ov = {**overrides, "sensing.signal.background_seed": room}
+        recs = list(pool.map(_room_run, seeds, [ov] * len(seeds)))
+        out.append(
+            {
+                c: (
+                    float(np.mean([r[c][0] == 0 for r in recs])),
+                    float(np.mean([r[c][1] for r in recs])),
+                    float(np.nanmedian([r[c][2] for r in recs])),
+                )
+                for c in ROOM_CHAINS
+            }
+        )
+    return out
+
+
+def _rooms_command(args: argparse.Namespace, out: Path, extra: str = "") -> str:
+    sets = f" --set {' '.join(args.set)}" if args.set else ""
+    first = f" --room0 {args.room0}" if args.room0 else ""
+    return (
+        f"`python scripts/seed001_through_wall.py --rooms {args.rooms}{first} --runs {args.runs} --seed0 {args.seed0}"
+        f"{extra}{sets} --out {out}`"
+    )
+
+
 def rooms_check(args: argparse.Namespace, overrides: dict[str, Any]) -> None:
-    """The check in rooms ``0..args.rooms - 1``; writes rooms.md.
+    """The check in rooms ``room0 .. room0 + rooms - 1``; writes rooms.md (``--alphas``: alphas.md instead).
 
     A room is the draw of its static paths from ``background_seed`` (the scenario's is 0); the walks and everything
     else are the scenario's.
@@ -481,33 +550,78 @@ def rooms_check(args: argparse.Namespace, overrides: dict[str, Any]) -> None:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     seeds = list(range(args.seed0, args.seed0 + args.runs))
+    rooms = range(args.room0, args.room0 + args.rooms)
+    if args.alphas:
+        alpha_sweep(args, overrides, out, seeds, rooms)
+        return
     lines = [
         f"# Seed 001's check in {args.rooms} rooms (runs {seeds[0]}-{seeds[-1]} in each)",
         "",
-        f"Command: `python scripts/seed001_through_wall.py --rooms {args.rooms} --runs {args.runs} --seed0 {args.seed0}"
-        + (f" --set {' '.join(args.set)}" if args.set else "")
-        + f" --out {out}`",
+        f"Command: {_rooms_command(args, out)}",
         "",
         "A room is the draw of its static paths (`sensing.signal.background_seed`; the scenario's is 0). Cells: runs "
         "without a ghost track / runs with both persons tracked / median RMSE [m].",
         "",
-        "| room | seed's chain (association) | the scenario's chain (+ still couples' clutter map) | check holds (the "
-        "scenario's chain) |",
+        "| room | the seed's chain (association: the scenario's default) | + the still couples' clutter map | check "
+        "holds (the scenario's chain) |",
         "| --- | --- | --- | --- |",
     ]
     with ProcessPoolExecutor(args.workers) as pool:
-        for room in range(args.rooms):  # rooms: a few
-            ov = {**overrides, "sensing.signal.background_seed": room}
-            recs = list(pool.map(_room_run, seeds, [ov] * len(seeds)))
-            zero = {c: float(np.mean([r[c][0] == 0 for r in recs])) for c in ROOM_CHAINS}
-            both = {c: float(np.mean([r[c][1] for r in recs])) for c in ROOM_CHAINS}
-            cells = [
-                f"{zero[c]:.0%} / {both[c]:.0%} / {np.nanmedian([r[c][2] for r in recs]):.3f}" for c in ROOM_CHAINS
-            ]
-            holds = check_holds(zero[DEFAULT_CHAIN], both[DEFAULT_CHAIN])
+        for room, agg in zip(rooms, _rooms(pool, rooms, seeds, overrides), strict=True):  # rooms: a few
+            cells = [f"{agg[c][0]:.0%} / {agg[c][1]:.0%} / {agg[c][2]:.3f}" for c in ROOM_CHAINS]
+            holds = check_holds(*agg[DEFAULT_CHAIN][:2])
             lines.append(f"| {room} | {cells[0]} | {cells[1]} | {'yes' if holds else 'no'} |")
             print(lines[-1], flush=True)
     (out / "rooms.md").write_text("\n".join(lines) + "\n")
+
+
+def alpha_sweep(args: argparse.Namespace, overrides: dict[str, Any], out: Path, seeds: list[int], rooms: range) -> None:
+    """The check in ``rooms`` for each exponential-averaging factor of ``args.alphas``; writes alphas.md.
+
+    Per factor alpha (``sensing.signal.background_alpha``), on the scenario's chain: the rooms where the check holds,
+    the runs without a ghost track and with both persons tracked over all rooms, the median of the rooms' median
+    RMSE; beside them what alpha does to the signal (``uwb_env.channel.background_mti``): a static path's residue
+    after a step (a person shadowing it) falls by 20 log10(1 / alpha) dB a scan, a walking person's echo (bistatic
+    range-rate 1.6 m/s) keeps ``retained_fraction`` of its power and a steady echo at 0.1 m/s less.
+    """
+    from uwb_env.channel.background_mti import delay_step_s, retained_fraction
+    from uwb_env.sensing.signal.synthesis import pulse_envelope_std_s
+    from uwb_env.waveforms.library import WaveformLibrary
+
+    cfg = scenario(DEFAULT_CHAIN, overrides)
+    wf = WaveformLibrary(cfg.waveforms)[0]
+    period, lpf = cfg.sensing.scan_period_s, cfg.sensing.signal.envelope_lpf_s
+    s = pulse_envelope_std_s(wf.rms_bandwidth_hz)
+    lines = [
+        f"# Seed 001's check against the exponential average's factor, rooms {rooms[0]}-{rooms[-1]} (runs "
+        f"{seeds[0]}-{seeds[-1]} in each)",
+        "",
+        f"Command: {_rooms_command(args, out, ' --alphas ' + ' '.join(f'{a:g}' for a in args.alphas))}",
+        "",
+        "The scenario's chain (the seed's: association, no clutter map). Residue decay: what a static path's residue "
+        "loses a scan after a person starts or stops shadowing it; retained: the background's loss on a steady echo "
+        "(`background_mti.retained_fraction`) at a bistatic range-rate of 1.6 / 0.1 m/s.",
+        "",
+        "| alpha | rooms where the check holds (with the still couples' map) | runs without a ghost track | runs with "
+        "both persons tracked | median RMSE [m] | residue decay [dB / scan] | retained at 1.6 / 0.1 m/s |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    with ProcessPoolExecutor(args.workers) as pool:
+        for alpha in args.alphas:  # factors: a few
+            per_room = _rooms(pool, rooms, seeds, {**overrides, "sensing.signal.background_alpha": alpha})
+            zero, both, rmse = (np.array([a[DEFAULT_CHAIN][i] for a in per_room]) for i in range(3))
+            holds = {c: sum(check_holds(*a[c][:2]) for a in per_room) for c in ROOM_CHAINS}
+            kept = [
+                float(np.squeeze(retained_fraction(delay_step_s(v, period), alpha, s, wf.center_freq_hz, lpf)))
+                for v in (1.6, 0.1)
+            ]
+            lines.append(
+                f"| {alpha:g} | {holds[DEFAULT_CHAIN]} ({holds[STILL_MAP_CHAIN]}) of {len(rooms)} | "
+                f"{zero.mean():.1%} | {both.mean():.1%} | {np.median(rmse):.3f} | {20.0 * np.log10(1.0 / alpha):.1f} | "
+                f"{kept[0]:.2f} / {kept[1]:.2f} |"
+            )
+            print(lines[-1], flush=True)
+    (out / "alphas.md").write_text("\n".join(lines) + "\n")
 
 
 def _row(label: str, cells: list[str], seed: str) -> str:
@@ -539,7 +653,23 @@ def main() -> None:
     ap.add_argument(
         "--rooms", type=int, default=0, metavar="N", help="only the check in rooms 0..N-1 (background_seed): rooms.md"
     )
+    ap.add_argument("--room0", type=int, default=0, metavar="R", help="--rooms: the first room (default 0)")
+    ap.add_argument(
+        "--alphas",
+        type=float,
+        nargs="*",
+        default=[],
+        metavar="ALPHA",
+        help="--rooms: the check for each exponential-averaging factor (sensing.signal.background_alpha): alphas.md",
+    )
     args = ap.parse_args()
+    if args.room0 < 0:
+        raise SystemExit(f"--room0={args.room0}: must be >= 0")
+    if args.alphas and not args.rooms:
+        raise SystemExit("--alphas: needs --rooms N")
+    bad = [a for a in args.alphas if not 0.0 < a < 1.0]
+    if bad:
+        raise SystemExit(f"--alphas {bad[0]!r}: must be in (0, 1)")
     if args.runs < 1:
         raise SystemExit(f"--runs={args.runs}: must be >= 1")
     if args.seed0 < 0:
@@ -611,7 +741,7 @@ def main() -> None:
         )
         + "\n"
     )
-    d = aggs[list(CHAINS).index(DEFAULT_CHAIN)]
+    d = aggs[list(CHAINS).index(STILL_MAP_CHAIN)]
 
     def verdict(x: dict[str, float]) -> str:
         holds = check_holds(x["zero_ghost_tracks"], x["both"])
@@ -687,13 +817,12 @@ def main() -> None:
         _row("track RMSE [m] (median over runs)", [f"{x['rmse']:.3f}" for x in aggs], "(no number)"),
         "",
         "**Check** (with association: 0 ghost tracks in >= 90 % of runs and both persons tracked in >= 90 %): the "
-        f"seed's chain {verdict(a)}; the scenario's default (its clutter map of still couples) {verdict(d)}.",
+        f"seed's chain, the scenario's default, {verdict(a)}; with the clutter map of still couples {verdict(d)}.",
         "",
         _clutter_map_note(cfg, dict(zip(CHAINS, aggs, strict=True))),
         "",
         f"Figures (run {seeds[0]}): radargrams.png, toa_association.png, positions_tracks.png. Per-chain numbers: "
-        "summary.csv; "
-        "per-run rows: runs.csv (not committed).",
+        "summary.csv, per-run rows: runs.csv (neither committed).",
         "",
         _window_note(cfg),
     ]

@@ -87,11 +87,16 @@ def test_table_interpolates_the_retained_fraction_and_is_even_in_range_rate():
 
 
 def _chain_residue(
-    rdot: float, phases: np.ndarray, swerling3: np.random.Generator | None = None, tau: np.ndarray | None = None
+    rdot: float,
+    phases: np.ndarray,
+    swerling3: np.random.Generator | None = None,
+    tau: np.ndarray | None = None,
+    upsample: int = 1,
 ) -> np.ndarray:
     """The through-wall chain's residue power over the echo's own at the echo's sample, after 200 scans.
 
     ``tau`` ``(n,)``: the echo's delays per scan instead of a constant ``rdot``; then ``(phases, n)``, every scan's.
+    ``upsample``: the chain sampled this many times faster than its clock (the same window and LPF in seconds).
 
     The chain's own steps (``SignalSensor.detect`` / ``in_sensor``, ``background = "exponential-coherent"``): the
     synthesis' pulse (``unit_pulses``) with a held carrier phase (``coherent_echoes``), delayed rdot T / c more
@@ -100,8 +105,8 @@ def _chain_residue(
     """
     cfg = scenarios.get("through-wall")
     sig = cfg.sensing.signal
-    fs = sig.sample_rate_hz
-    t = np.arange(sig.n_samples) / fs
+    fs = sig.sample_rate_hz * upsample
+    t = np.arange(sig.n_samples * upsample) / fs
     wf = WaveformLibrary(cfg.waveforms)[0]
     fc, s = wf.center_freq_hz, pulse_envelope_std_s(wf.rms_bandwidth_hz)
     lpf = sig.envelope_lpf_s * fs
@@ -162,8 +167,10 @@ def test_the_chains_residue_of_a_swerling3_echo_matches_the_model(rdot):
 
 
 def test_through_wall_parametric_pd_takes_the_mti_loss_with_velocities_only():
-    """Through-wall: Pd at a still target's velocity is lower, a walking person's unchanged; without velocities the
-    positions-only Pd is the radar equation's as before; other scenarios have no MTI."""
+    """Through-wall: Pd at a still target's velocity is lower, a walking person's is the Pd at the SNR times the MTI's
+    retained fraction at its bistatic range-rate (1.49 at 1.6 m/s with the scenario's alpha 0.4: the canceller's
+    high-pass gain); without velocities the positions-only Pd is the radar equation's as before; other scenarios have
+    no MTI."""
     cfg = scenarios.get("through-wall")
     s = ParametricSensor(cfg)
     assert s._mti is not None
@@ -172,8 +179,14 @@ def test_through_wall_parametric_pd_takes_the_mti_loss_with_velocities_only():
     still = s.detection_probability_at(0, 0, far, 0, 1.0, 3, velocities=np.zeros((1, 2)))
     walking = s.detection_probability_at(0, 0, far, 0, 1.0, 3, velocities=np.array([[0.0, 0.8]]))
     assert still[0] < pd0[0] - 0.05
-    assert walking[0] == pytest.approx(pd0[0], abs=0.03)
-    assert s.mti_gain(0, 0.0) == pytest.approx(amplitude_fluctuation(3) * 2.0 / (1.0 + ALPHA), rel=1e-6)
+    tx, rx = np.array(cfg.transmitters[0].position_m), np.array(cfg.receivers[0].position_m)
+    unit = [(far[0] - q) / np.linalg.norm(far[0] - q) for q in (tx, rx)]
+    rdot = float(np.array([0.0, 0.8]) @ (unit[0] + unit[1]))  # bistatic range-rate [m/s]
+    gain = float(s.mti_gain(0, rdot))
+    assert 1.4 < gain < 1.6
+    assert walking[0] == pytest.approx(s.detection_probability_at(0, 0, far, 0, gain, 3)[0], abs=0.005)
+    alpha = cfg.sensing.signal.background_alpha  # the scenario's (0.4), not the kernels' tests' ALPHA
+    assert s.mti_gain(0, 0.0) == pytest.approx(amplitude_fluctuation(3) * 2.0 / (1.0 + alpha), rel=1e-6)
     coherent = scenarios.get("through-wall", **{"sensing.signal.coherent_echoes": False})
     assert ParametricSensor(coherent)._mti is None
     rsn = ParametricSensor(scenarios.get("indoor-rsn"))
@@ -215,13 +228,20 @@ def test_the_history_form_is_the_steady_state_for_a_constant_range_rate_and_star
 
 def test_the_chains_residue_of_a_turning_echo_matches_the_history_form():
     """A person turning round: range-rate +1.6 -> -1.6 m/s over 14 scans (a parabolic delay), then back out; the
-    chain's residue per scan (eight carrier phases) against ``retained_fraction_history`` on the same delays."""
+    chain's residue per scan (eight carrier phases) against ``retained_fraction_history`` on the same delays.
+
+    Per scan at 8 x the chain's clock: the history form is continuous in delay, and the chain reads the residue at the
+    echo's nearest sample. With the scenario's fast average (alpha 0.4, the background mostly the last scan's echo
+    1.8 samples back at 1.6 m/s) that reading scatters about the form by 0.13 rms per scan at the 4.5 GHz clock (max
+    0.26 on the turn; 0.017 rms at 8 x), its mean over the walk +0.06 above it (a residue of ~1.5): the scatter is the
+    clock's, not the canceller's, and the mean is asserted at the clock itself."""
     cfg = scenarios.get("through-wall")
     sig, period = cfg.sensing.signal, cfg.sensing.scan_period_s
     wf = WaveformLibrary(cfg.waveforms)[0]
     rdot = np.concatenate([np.full(40, 1.6), np.linspace(1.6, -1.6, 14), np.full(20, -1.6)])
     tau = 30e-9 + np.cumsum(delay_step_s(rdot, period))
-    measured = _chain_residue(0.0, np.arange(8) * 2.0 * math.pi / 8, tau=tau)  # (8, n)
+    measured = _chain_residue(0.0, np.arange(8) * 2.0 * math.pi / 8, tau=tau, upsample=8)  # (8, n)
+    at_clock = _chain_residue(0.0, np.arange(8) * 2.0 * math.pi / 8, tau=tau)
     model = retained_fraction_history(
         tau,
         sig.background_alpha,
@@ -232,7 +252,10 @@ def test_the_chains_residue_of_a_turning_echo_matches_the_history_form():
     se = measured.std(axis=0, ddof=1) / math.sqrt(measured.shape[0])
     turn = slice(38, 60)
     assert np.all(np.abs(measured.mean(axis=0)[turn] - model[turn]) <= 3.0 * se[turn] + 0.05)
-    assert model[turn].min() > 0.05  # the turn passes through rdot = 0 too fast for the MTI to cancel it
+    assert abs(float(np.mean(at_clock.mean(axis=0) - model))) <= 0.1
+    # the scenario's fast average (alpha 0.4) cancels a steady echo in the one scan where the turn stops it (0.022,
+    # -17 dB; the scan before 0.25); at alpha 0.9 the dip was 0.59 and while walking it kept 1.07, not 1.49
+    assert np.sum(model[turn] < 0.1) == 1 and np.sum(model[turn] < 0.3) == 2
     steady = retained_fraction(
         delay_step_s(rdot[turn], period),
         sig.background_alpha,

@@ -1,5 +1,9 @@
 """The through-wall parametric detector: the interval ToA test's false-alarm probability and the parametric-only
-Swerling case (``SensingConfig.detection_swerling``), which leaves the signal path unchanged."""
+Swerling case (``SensingConfig.detection_swerling``), which leaves the signal path unchanged.
+
+Through-wall's own detector takes the persons' Swerling III (``detection_swerling`` None, ThroughWall-v4: the fast
+exponential background sums each echo with its displaced predecessors, two looks; v2-v3 overrode it with Swerling I);
+the override is tested with Swerling I."""
 
 from __future__ import annotations
 
@@ -26,14 +30,16 @@ def test_interval_test_pfa_is_the_binomial_tail_of_the_chains_window():
     assert interval_test_pfa(1, 1, 1e-2) == pytest.approx(1e-2, rel=1e-12)  # W_p = 1: the per-sample test
 
 
-def test_through_wall_parametric_detector_is_the_interval_tests_with_swerling_i():
+def test_through_wall_parametric_detector_is_the_interval_tests_with_the_persons_swerling_iii():
     cfg = scenarios.get("through-wall")
     sig = cfg.sensing.signal
     assert (sig.toa_interval_samples, sig.toa_interval_threshold, sig.cfar_pfa) == (15, 4, 1e-2)
     assert cfg.sensing.false_alarm_probability == THROUGH_WALL_PFA
     assert THROUGH_WALL_PFA == interval_test_pfa(15, 4, 1e-2)
-    assert cfg.sensing.detection_swerling == 1
-    assert all(t.swerling == 3 for t in cfg.targets)  # the signal path's scattering centres stay Swerling III
+    assert cfg.sensing.detection_swerling is None  # the persons' own case
+    assert all(t.swerling == 3 for t in cfg.targets)  # also the signal path's scattering centres'
+    s = ParametricSensor(cfg)
+    np.testing.assert_array_equal(s._detect_swerling_w, swerling_weights(np.array([3, 3])))
 
 
 def test_detection_swerling_is_validated_and_off_by_default():
@@ -48,8 +54,8 @@ def test_detection_swerling_is_validated_and_off_by_default():
 def test_the_parametric_detection_draws_swerling_i_and_the_mti_keeps_the_targets_case():
     """The override changes only the parametric RCS factors (exponential, unit mean: var 1 against III's 1/2); the
     sensor's ``swerling`` (read by the signal path) and the MTI's retained fraction keep the persons' Swerling III."""
-    cfg = scenarios.get("through-wall")
-    own = scenarios.get("through-wall", **{"sensing.detection_swerling": None})
+    cfg = scenarios.get("through-wall", **{"sensing.detection_swerling": 1})
+    own = scenarios.get("through-wall")
     s, o = ParametricSensor(cfg), ParametricSensor(own)
     np.testing.assert_array_equal(s.swerling, [3, 3])
     np.testing.assert_array_equal(s._detect_swerling_w, swerling_weights(np.array([1, 1])))

@@ -1958,15 +1958,16 @@ class ParametricSensor:
 
 
 def false_alarm_scale(cfg: ScenarioConfig) -> FloatArray:
-    """``(W,)`` each waveform's false-alarm density over ``ClutterConfig.density_per_m2``: B_w / reference bandwidth.
+    """``(W,)`` each waveform's false-alarm density over ``ClutterConfig.density_per_m2``.
 
-    A detector at a fixed per-cell Pfa makes false detections in proportion to its resolution cells, c / B_w each in
-    range; ``reference_bandwidth_hz`` 0 (default): 1 for every waveform.
+    B_w / reference bandwidth: a detector at a fixed per-cell Pfa makes false detections in proportion to its
+    resolution cells, c / B_w each in range (``reference_bandwidth_hz`` 0, the default: 1 for every waveform); times
+    an impulse waveform's ``false_alarm_factor`` (a chain whose false detections are background residues that grow with
+    the waveform's energy; chirps: 1).
     """
     ref = cfg.sensing.clutter.reference_bandwidth_hz
-    if ref <= 0.0:
-        return np.ones(len(cfg.waveforms))
-    return np.array([w.bandwidth_hz / ref for w in cfg.waveforms], dtype=float)
+    cells = [w.bandwidth_hz / ref if ref > 0.0 else 1.0 for w in cfg.waveforms]
+    return np.array([c * getattr(w, "false_alarm_factor", 1.0) for c, w in zip(cells, cfg.waveforms, strict=True)])
 
 
 _SQRT_HALF = math.sqrt(0.5)
