@@ -136,22 +136,44 @@ WALK_SETS = {
 }
 """The persons' walks, (start, far end) each (``--set walks=NAME``, the study's key): the scenario's (radial: towards
 and away from the array), mirrored left-right (the turns too; the room's paths are not mirrored), or across the array's
-view (3 m walks at 2.5 m and 4.5 m, bistatic range-rates within +-0.6 m/s)."""
+view (3 m walks at 2.5 m and 4.5 m, bistatic range-rates within +-0.6 m/s); ``random-N``: ``random_walks(N)``."""
+
+
+def random_walks(n: int) -> tuple[tuple[tuple[float, float], tuple[float, float]], ...]:
+    """Walk set ``random-N``: two persons' (start, far end), drawn from seed N.
+
+    Each point uniform over x in [-1.8, 1.8] m, y in [1.6, 5.5] m (the room behind the wall, clear of the blind zone),
+    the far end redrawn until the walk is at least 2 m long.
+    """
+    rng = np.random.default_rng(n)
+    walks = []
+    for _ in range(2):  # persons
+        start = (float(rng.uniform(-1.8, 1.8)), float(rng.uniform(1.6, 5.5)))
+        end = start
+        while np.hypot(end[0] - start[0], end[1] - start[1]) < 2.0:  # a few draws
+            end = (float(rng.uniform(-1.8, 1.8)), float(rng.uniform(1.6, 5.5)))
+        walks.append((start, end))
+    return tuple(walks)
 
 
 def with_walks(cfg: ScenarioConfig, walks: str) -> ScenarioConfig:
-    """``cfg`` with the persons on ``WALK_SETS[walks]`` (there and back at ``through_wall.SPEED_MPS``)."""
-    if walks not in WALK_SETS:
-        raise ValueError(f"walks = {walks!r}: must be one of {sorted(WALK_SETS)}")
+    """``cfg`` with the persons on ``WALK_SETS[walks]``, or on ``random_walks(N)`` for ``random-N``.
+
+    Each person walks there and back at ``through_wall.SPEED_MPS`` (``through_wall.there_and_back``).
+    """
+    name, _, n = walks.partition("-")
+    if walks not in WALK_SETS and not (name == "random" and n.isdigit()):
+        raise ValueError(f"walks = {walks!r}: must be one of {sorted(WALK_SETS)} or random-N (N >= 0)")
     if walks == "scenario":
         return cfg
+    chosen = random_walks(int(n)) if name == "random" else WALK_SETS[walks]
     sign = -1.0 if walks == "mirrored" else 1.0
     targets = []
-    for target, (start, end) in zip(cfg.targets, WALK_SETS[walks], strict=True):  # persons: two
+    for target, (start, end) in zip(cfg.targets, chosen, strict=True):  # persons: two
         path = through_wall.there_and_back(start, end)
         turns = tuple(dataclasses.replace(m, turn_rate_rps=sign * m.turn_rate_rps) for m in path.segments)
         targets.append(dataclasses.replace(target, trajectory=dataclasses.replace(path, segments=turns)))
-    longest = max(float(np.hypot(e[0] - s[0], e[1] - s[1])) for s, e in WALK_SETS[walks])
+    longest = max(float(np.hypot(e[0] - s[0], e[1] - s[1])) for s, e in chosen)
     n_scans = round((2.0 * longest / through_wall.SPEED_MPS + through_wall.TURN_S) / through_wall.SCAN_PERIOD_S)
     return dataclasses.replace(cfg, targets=tuple(targets), n_scans=n_scans)
 
