@@ -1422,7 +1422,7 @@ class ParametricSensor:
                 var = rdot_var + self._rdot_var
                 gauss = np.exp(-0.5 * rows[:, 2] ** 2 / var) / np.sqrt(2.0 * math.pi * var)
                 rho = rho * np.where(folded, folded_uniform_density(rows[:, 2], period, self._rdot_max), gauss)
-        if self._fa_scaled:  # false alarms per waveform: x B_w / reference (ClutterConfig.reference_bandwidth_hz)
+        if self._fa_scaled:  # false alarms per waveform: false_alarm_scale (bandwidth rule x false_alarm_factor)
             rho = rho * self.false_alarm_scale[waveform]
         return rho
 
@@ -1952,7 +1952,7 @@ class ParametricSensor:
     def expected_clutter(self) -> FloatArray:
         """``(T, R)`` expected number of false detections per scan in each pair's gate, at ``density_per_m2``.
 
-        A waveform's: x ``false_alarm_scale[w]`` (``ClutterConfig.reference_bandwidth_hz``).
+        A waveform's: x ``false_alarm_scale[w]`` (bandwidth rule x ``false_alarm_factor``).
         """
         return self._clutter_mean
 
