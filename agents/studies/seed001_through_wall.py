@@ -168,14 +168,11 @@ def with_walks(cfg: ScenarioConfig, walks: str) -> ScenarioConfig:
         return cfg
     chosen = random_walks(int(n)) if name == "random" else WALK_SETS[walks]
     sign = -1.0 if walks == "mirrored" else 1.0
-    targets = []
-    for target, (start, end) in zip(cfg.targets, chosen, strict=True):  # persons: two
-        path = through_wall.there_and_back(start, end)
-        turns = tuple(dataclasses.replace(m, turn_rate_rps=sign * m.turn_rate_rps) for m in path.segments)
-        targets.append(dataclasses.replace(target, trajectory=dataclasses.replace(path, segments=turns)))
-    longest = max(float(np.hypot(e[0] - s[0], e[1] - s[1])) for s, e in chosen)
-    n_scans = round((2.0 * longest / through_wall.SPEED_MPS + through_wall.TURN_S) / through_wall.SCAN_PERIOD_S)
-    return dataclasses.replace(cfg, targets=tuple(targets), n_scans=n_scans)
+    targets = tuple(
+        dataclasses.replace(target, trajectory=through_wall.there_and_back(start, end, sign))
+        for target, (start, end) in zip(cfg.targets, chosen, strict=True)  # persons: two
+    )
+    return dataclasses.replace(cfg, targets=targets, n_scans=through_wall.walk_scans(chosen))
 
 
 def scenario(chain: str, overrides: dict[str, Any]) -> ScenarioConfig:
@@ -685,6 +682,8 @@ def main() -> None:
         help="--rooms: the check for each exponential-averaging factor (sensing.signal.background_alpha): alphas.md",
     )
     args = ap.parse_args()
+    if args.rooms < 0:
+        raise SystemExit(f"--rooms={args.rooms}: must be >= 0")
     if args.room0 < 0:
         raise SystemExit(f"--room0={args.room0}: must be >= 0")
     if args.alphas and not args.rooms:
@@ -697,8 +696,6 @@ def main() -> None:
     if args.seed0 < 0:
         raise SystemExit(f"--seed0={args.seed0}: must be >= 0")
     overrides = _parse_sets(args.set)
-    if args.rooms < 0:
-        raise SystemExit(f"--rooms={args.rooms}: must be >= 0")
     if args.rooms:
         rooms_check(args, overrides)
         return

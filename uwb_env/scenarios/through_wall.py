@@ -202,8 +202,13 @@ WALKS = (((-1.2, 1.6), (-0.6, 4.6)), ((1.3, 5.0), (0.7, 2.0)))
 """Our walks: (start, far end) of each person, who walks there and back."""
 
 
-def there_and_back(start: tuple[float, float], end: tuple[float, float]) -> SegmentedTrajectoryConfig:
-    """Walk from ``start`` to ``end`` at ``SPEED_MPS``, turn back in ``TURN_S`` (a half circle), walk back."""
+def there_and_back(
+    start: tuple[float, float], end: tuple[float, float], turn_sign: float = 1.0
+) -> SegmentedTrajectoryConfig:
+    """Walk from ``start`` to ``end`` at ``SPEED_MPS``, turn back in ``TURN_S`` (a half circle), walk back.
+
+    ``turn_sign``: +1 turns to the left, -1 to the right (a mirrored walk's).
+    """
     dx, dy = end[0] - start[0], end[1] - start[1]
     length = (dx * dx + dy * dy) ** 0.5
     v = (SPEED_MPS * dx / length, SPEED_MPS * dy / length)
@@ -213,10 +218,16 @@ def there_and_back(start: tuple[float, float], end: tuple[float, float]) -> Segm
         start_velocity_mps=v,
         segments=(
             MotionSegmentConfig("cv", leg_s),
-            MotionSegmentConfig("ct", TURN_S, turn_rate_rps=3.141592653589793 / TURN_S),
+            MotionSegmentConfig("ct", TURN_S, turn_rate_rps=turn_sign * 3.141592653589793 / TURN_S),
             MotionSegmentConfig("cv", leg_s),
         ),
     )
+
+
+def walk_scans(walks: tuple[tuple[tuple[float, float], tuple[float, float]], ...]) -> int:
+    """Scans of an episode of ``walks`` ((start, far end) per person): the longest there and back with its turn."""
+    longest = max(abs(complex(*e) - complex(*s)) for s, e in walks)
+    return round((2 * longest / SPEED_MPS + TURN_S) / SCAN_PERIOD_S)
 
 
 TRACK_MAX_POSITION_STD_M = 2.0
@@ -325,7 +336,7 @@ def through_wall() -> ScenarioConfig:
         )
         for n in (256, 64, 1024)
     )
-    n_scans = round((2 * max(abs(complex(*e) - complex(*s)) for s, e in WALKS) / SPEED_MPS + TURN_S) / SCAN_PERIOD_S)
+    n_scans = walk_scans(WALKS)
     return ScenarioConfig(
         name="through-wall",
         description="Seed 001: a handheld 1 Tx + 2 Rx UWB radar before a 24 cm brick wall, two persons behind it.",
