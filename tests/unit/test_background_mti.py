@@ -264,3 +264,30 @@ def test_the_chains_residue_of_a_turning_echo_matches_the_history_form():
         sig.envelope_lpf_s,
     )
     assert np.max(np.abs(model[turn] - steady)) > 0.1  # the steady state's constant range-rate misses the turn
+
+
+@pytest.mark.parametrize(("scenario", "adaptive"), [("through-wall", True), ("indoor-rsn", False)])
+def test_an_adaptive_background_starts_on_the_room_as_it_is(scenario, adaptive):
+    """Seed 001's running average (through-wall, "exponential-coherent") starts on the static paths with the episode's
+    scan-0 fluctuation; a fixed empty-room reference (indoor-rsn) on their nominal gains. Either way what is left is the
+    reference's own noise: ``empty_room_scans`` averaged unit-variance scans, std 1 / 4 (16 scans; ~3,000 samples per
+    waveform: std error 1.3 %), with a 20 % fluctuation so that the wrong gains would show (0.2 x paths of SNR >> 1)."""
+    from uwb_env.rng import RngStreams
+    from uwb_env.scene.truth import sample_truth
+    from uwb_env.sensing.signal.sensor import SignalSensor
+
+    cfg = scenarios.get(scenario, **{"sensing.fidelity": "signal", "sensing.signal.clutter_fluctuation": 0.2})
+    sensor = SignalSensor(cfg)
+    rngs = RngStreams.from_seed(3)
+    ep = sensor.new_episode(sample_truth(cfg, rngs.truth, sensor.layout), rngs)
+    assert np.abs(ep.fluctuation).max() > 0.1  # the draw is large enough to tell the two gains apart
+    fluctuated = sensor._background_gain(sensor.path_amplitude, ep.fluctuation)
+    gains = {"fluctuated": fluctuated, "nominal": sensor.path_amplitude}
+    stds = {}
+    for name, gain in gains.items():
+        clean = np.sqrt(2.0 * sensor.dp_snr)[..., None] * np.einsum("pl,pln->pn", gain, sensor.path_waveforms)[None]
+        stds[name] = float(np.std(ep.reference_scan - clean))
+    right, wrong = ("fluctuated", "nominal") if adaptive else ("nominal", "fluctuated")
+    noise = 1.0 / math.sqrt(cfg.sensing.signal.empty_room_scans)
+    assert stds[right] == pytest.approx(noise, rel=0.05)
+    assert stds[wrong] > 2.0 * noise
