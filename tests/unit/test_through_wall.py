@@ -516,10 +516,27 @@ def test_person_tracks_are_consistent_in_the_median(fidelity):
 @pytest.mark.slow
 def test_seed001_check_on_fresh_runs():
     """Issue 18's check on runs it was not tuned on (seeds 300-319): the scenario's chain (the seed's association,
-    ThroughWall-v4's exponential average at alpha 0.4) has no ghost track in >= 90 % of the runs and holds both persons
-    (>= 50 % of their scans each) in >= 90 % (measured on runs 0-19 and 100-199: 100 % / 100 %)."""
+    exponential average at alpha 0.4, the 10-scan confirmation time-out of ThroughWall-v5) has no ghost track in >= 90 %
+    of the runs and holds both persons (>= 50 % of their scans each) in >= 90 % (measured on runs 0-19 and 100-199:
+    100 % / 100 %)."""
     from uwb_env.agents.studies.seed001_through_wall import DEFAULT_CHAIN, run
 
     rec = [run(seed, {}, chains=(DEFAULT_CHAIN,))[DEFAULT_CHAIN] for seed in range(300, 320)]
+    assert np.mean([r["ghost_tracks"] == 0 for r in rec]) >= 0.9
+    assert np.mean([r["both_tracked"] for r in rec]) >= 0.9
+
+
+@pytest.mark.slow
+def test_seed001_check_in_a_room_with_a_strong_static_path_on_the_walks():
+    """Room 7 (``background_seed`` 7) holds a strong static path at 7.36 m of bistatic range in both receivers (on the
+    array's axis, (0, 3.67) m), about 1 m from the second person's walk: its residue when the person's shadow crosses
+    its legs (and, before ``SignalSensor.new_episode`` started the running background on the room as it is, its
+    scan-0 fluctuation) makes still couples that can confirm a ghost track. Runs 400-459 with ThroughWall-v5: no ghost
+    track in 90 %, both persons tracked in 100 % (v4's 5-scan time-out: 97 % / 98 %). Asserted on runs 420-439 (19 of
+    20 measured), the check's >= 90 % on both counts."""
+    from uwb_env.agents.studies.seed001_through_wall import DEFAULT_CHAIN, run
+
+    room = {"sensing.signal.background_seed": 7}
+    rec = [run(seed, room, chains=(DEFAULT_CHAIN,))[DEFAULT_CHAIN] for seed in range(420, 440)]
     assert np.mean([r["ghost_tracks"] == 0 for r in rec]) >= 0.9
     assert np.mean([r["both_tracked"] for r in rec]) >= 0.9
