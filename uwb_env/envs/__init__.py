@@ -44,7 +44,7 @@ background, advance normalization, CFAR, ToA association, wall compensation, two
 Version history:
     * ``ThroughWall-v5`` (issue 18): the tracker confirms a person within 10 scans (``TrackerConfig.
       tentative_max_age``, was seed 003's 5, set for vehicles detected in ~90 % of scans: a person's couples come in
-      ~60 %, and more than half of the persons' tentative tracks were deleted one or two scans short of confirmation;
+      ~60 %, and about half of the persons' tentative tracks were deleted one or two scans short of confirmation;
       ``through_wall.PERSON_CONFIRMATION_SCANS``), and the signal path's running background starts on the room as it
       is at the episode's start (``SignalSensor.new_episode``: the static paths' scan-0 fluctuation, not their nominal
       gains, which left a burst of static couples in the first scans). Dynamics and rewards changed (both fidelities:

@@ -68,9 +68,9 @@ largest factor holding in every room, so of those the narrowest MTI notch and th
 (2 / (1 + alpha) of the noise power). With v5's 10-scan time-out (``PERSON_CONFIRMATION_SCANS``) 0.2-0.3 hold in 8 of
 8 and 0.4 in 7 (room 3: a ghost track in 3 of runs 400-419, a person's track dragged across by outlying couples; 92.5 %
 without one over runs 400-479); 0.4 is kept, one run of 160 from 0.3. On rooms and runs the choice never saw it holds
-in every room: rooms 8-15, runs 500-519 (``--rooms 8 --room0 8 --seed0
-500``, results/seed001/rooms.md: no ghost track in 95-100 % of the runs, both persons tracked in 100 %) and the
-walks mirrored in rooms 0-3 (``--set walks=mirrored``: 95-100 % / 100 %). The price is the notch: a steady
+in every room: rooms 8-15, runs 500-519 (``--rooms 8 --room0 8 --seed0 500``, results/seed001/rooms.md: no ghost
+track in 95-100 % of the runs, both persons tracked in 100 %) and the walks mirrored in rooms 0-3 (``--set
+walks=mirrored``: 95-100 % / 100 %). The price is the notch: a steady
 echo at 0.1 m/s keeps 0.11 of its power against 0.72, and a turning person's steady echo is cancelled (0.02) in the
 one scan the turn stops it; a still Swerling III body keeps more (0.17 against 0.12). Walks across the array's view
 (``walks=tangential``, bistatic range-rates within +-0.6 m/s; rooms 0-3) hold the check in 3 rooms of 4 at 0.4 (both
