@@ -603,14 +603,13 @@ def alpha_sweep(args: argparse.Namespace, overrides: dict[str, Any], out: Path, 
     after a step (a person shadowing it) falls by 20 log10(1 / alpha) dB a scan, a walking person's echo (bistatic
     range-rate 1.6 m/s) keeps ``retained_fraction`` of its power and a steady echo at 0.1 m/s less.
     """
-    from uwb_env.channel.background_mti import delay_step_s, retained_fraction
-    from uwb_env.sensing.signal.synthesis import pulse_envelope_std_s
+    from uwb_env.channel.background_mti import delay_step_s, envelope_std_s, retained_fraction
     from uwb_env.waveforms.library import WaveformLibrary
 
     cfg = scenario(DEFAULT_CHAIN, overrides)
     wf = WaveformLibrary(cfg.waveforms)[0]
     period, lpf = cfg.sensing.scan_period_s, cfg.sensing.signal.envelope_lpf_s
-    s = pulse_envelope_std_s(wf.rms_bandwidth_hz)
+    s = envelope_std_s(wf.rms_bandwidth_hz)  # the MTI's inputs as the parametric model's table takes them
     lines = [
         f"# Seed 001's check against the exponential average's factor, rooms {rooms[0]}-{rooms[-1]} (runs "
         f"{seeds[0]}-{seeds[-1]} in each)",

@@ -304,14 +304,9 @@ class SignalSensor(ParametricModelHooks):
 
         The static paths' relative amplitudes fluctuate (AR(1), std ``clutter_fluctuation``, drawn here for scan 0).
         A fixed reference (``background`` "empty_room", "coherent") was recorded before the episode on their nominal
-        gains, so the episode's fluctuation stays in its residue. An adaptive one ("exponential",
-        "exponential-coherent": seed 001's running average) has been averaging the room all along and starts on the
-        paths as they are at scan 0 (``_background_gain`` with the drawn fluctuation). On the nominal gains a path 40 dB
-        above the noise left its whole 0.5 % fluctuation in the first scans' residue (-6 dB re the noise; in steady
-        state the canceller passes 0.22 of the AR(1)'s variance at correlation 0.9 and alpha 0.4: -12.5 dB), a burst of
-        one static couple in the first scans (through-wall room 7, runs 400-459, 10-scan confirmation time-out: a ghost
-        track in 9 of 60 runs on the nominal gains, 6 from this start; the rest are the same path's residue when a
-        person's shadow crosses its legs).
+        gains; an adaptive one ("exponential", "exponential-coherent": seed 001's running average) has been averaging
+        the room all along and starts on the paths as they are at scan 0. On the nominal gains it left the whole
+        fluctuation in the first scans' residue, a burst of one static couple (README, seed 001: through-wall room 7).
         """
         sig = self.sig
         P, L = self.path_delay_s.shape[0], sig.n_multipath
