@@ -7,9 +7,17 @@ The library behind ``uwb-env-evaluate`` (``uwb_env.agents.cli``; ``scripts/evalu
 
 A **scheme** is ``SCHEDULER[@TRACKER]``: the scheduler is one of ``uwb_env.agents.scheduler_names()`` (``myopic``,
 ``round-robin``, ``random``, ``fixed-K``, ``lookahead-D``), the tracker ``scenario`` (default: the scenario's
-``tracker.kind``), ``open-loop`` (seed 003's baseline, one NCV UKF: ``uwb_env.config.open_loop_tracker``) or a
-tracker kind of ``uwb_env.tracking.registry``: ``imm-lmipda`` (seed 003's VS-IMM / LMIPDA), ``phd`` (seed 000's
-particle PHD), ``pf`` (seed 002's particle filter).
+``tracker.kind``), ``open-loop`` (seed 003's baseline, one NCV UKF: ``uwb_env.config.open_loop_tracker``),
+``open-loop-one-rx`` (the same on one receiver, below), either with ``:SIGMA`` (the NCV's white-acceleration std in
+m/s^2; default that of the VS-IMM's NCV model, 0.5: the ablation's "VS-IMM removed"), or a tracker kind of
+``uwb_env.tracking.registry``: ``imm-lmipda`` (seed 003's VS-IMM / LMIPDA), ``phd`` (seed 000's particle PHD),
+``pf`` (seed 002's particle filter).
+
+``open-loop-one-rx`` is seed 003's baseline as section V words it, "an open-loop system which does not support any
+diversity modes": no waveform diversity (the scheduler: round-robin), no motion-model diversity (one NCV UKF) and
+no spatial diversity (the abstract's mode 1, "coordinated multistatic radars"): the first transmitter-receiver pair
+alone (``pairs = [[0, 0]]``, :data:`ONE_RECEIVER`). One receiver's range and range-rate cannot place a target, so that
+receiver also measures the azimuth with its array (``sensing.measure_doa``), as in the ablation's one-receiver row.
 Every scheme plays the same seeds ``seed0 .. seed0 + N - 1``; ``env.reset(seed)`` draws truth, clutter and noise
 from named streams and the truth never depends on actions, so differences between schemes are paired.
 
@@ -83,7 +91,9 @@ from uwb_env.envs import ENV_IDS, UWBSchedulingEnv
 from uwb_env.envs.family import SceneFamilyEnv
 from uwb_env.scenarios.families import get_family
 
-TRACKERS = ("scenario", "open-loop", *TRACKER_KINDS)
+TRACKERS = ("scenario", "open-loop", "open-loop-one-rx", *TRACKER_KINDS)
+ONE_RECEIVER = {"pairs": [[0, 0]], "sensing.measure_doa": True}
+"""The scenario overrides of ``open-loop-one-rx``: no spatial diversity (module docstring)."""
 METRICS = {
     "rmse_m": "position RMSE [m]",
     "ospa_m": "OSPA [m]",
@@ -163,10 +173,15 @@ def check_types(campaign: Campaign) -> None:
 
 
 def parse_scheme(scheme: str) -> tuple[str, str]:
-    """``"SCHEDULER[@TRACKER]"`` -> (scheduler, tracker), both checked."""
+    """``"SCHEDULER[@TRACKER]"`` -> (scheduler, tracker), both checked (``TRACKER`` may be ``open-loop:SIGMA``)."""
     scheduler, _, tracker = scheme.partition("@")
     tracker = tracker or "scenario"
-    if tracker not in TRACKERS:
+    name, colon, sigma = tracker.partition(":")
+    if colon:
+        if not name.startswith("open-loop"):
+            raise ValueError(f"scheme {scheme!r}: only an open-loop tracker takes ':SIGMA' (got {name!r})")
+        open_loop_sigma(scheme, sigma)
+    if name not in TRACKERS:
         raise ValueError(f"scheme {scheme!r}: tracker {tracker!r} must be one of {TRACKERS}")
     try:
         check_scheduler_name(scheduler)  # raises with the allowed names
@@ -175,25 +190,48 @@ def parse_scheme(scheme: str) -> tuple[str, str]:
     return scheduler, tracker
 
 
+def open_loop_sigma(scheme: str, text: str) -> float:
+    """The NCV UKF's white-acceleration std [m/s^2] of ``open-loop:SIGMA``, checked: a number in (0, 1000]."""
+    try:
+        sigma = float(text)
+    except ValueError:
+        sigma = math.nan
+    if not 0.0 < sigma <= 1000.0:
+        raise ValueError(f"scheme {scheme!r}: open-loop SIGMA {text!r} must be a number in (0, 1000] m/s^2")
+    return sigma
+
+
 def make_env(campaign: Campaign, tracker: str) -> UWBSchedulingEnv:
     """The campaign's environment (the registered id's arguments, the overrides, the scheme's tracker).
 
     A scene-family id (``uwb_env.envs.FAMILY_ENV_IDS``) gives a ``SceneFamilyEnv``: the overrides and the scheme's
     tracker apply to every variant it draws (the open-loop tracker as overrides of the tracker's model fields).
+    ``open-loop-one-rx`` adds :data:`ONE_RECEIVER` to the overrides (refused if they set those keys themselves);
+    ``open-loop:SIGMA`` (either open loop) sets the NCV UKF's white-acceleration std to SIGMA m/s^2.
     """
     kwargs = {**ENV_IDS[campaign.env], **campaign.env_kwargs}
+    overrides = dict(campaign.overrides)
+    tracker, colon, sigma_text = tracker.partition(":")
+    ncv = {"accel_noise_std_mps2": open_loop_sigma(tracker, sigma_text)} if colon else {}
+    if tracker == "open-loop-one-rx":
+        clash = sorted(set(overrides) & set(ONE_RECEIVER))
+        if clash:
+            raise ValueError(
+                f"scheme tracker 'open-loop-one-rx' sets {clash} itself ({ONE_RECEIVER}): drop them from the overrides"
+            )
+        overrides.update(ONE_RECEIVER)
+        tracker = "open-loop"
     if "family" in kwargs:
-        overrides = dict(campaign.overrides)
         if tracker == "open-loop":
-            single = open_loop_tracker(scenarios.get(get_family(kwargs["family"]).scenario).tracker)
+            single = open_loop_tracker(scenarios.get(get_family(kwargs["family"]).scenario).tracker, **ncv)
             fields = ("models", "transition", "default_models", "model_set_windows")
             overrides.update({f"tracker.{f}": getattr(single, f) for f in fields})
         elif tracker in TRACKER_KINDS:
             kwargs["tracker"] = tracker
         return SceneFamilyEnv(**kwargs, **overrides)  # type: ignore[return-value]
-    cfg = apply_overrides(scenarios.get(kwargs.pop("scenario")), campaign.overrides)
+    cfg = apply_overrides(scenarios.get(kwargs.pop("scenario")), overrides)
     if tracker == "open-loop":
-        cfg = dataclasses.replace(cfg, tracker=open_loop_tracker(cfg.tracker))
+        cfg = dataclasses.replace(cfg, tracker=open_loop_tracker(cfg.tracker, **ncv))
     elif tracker in TRACKER_KINDS:
         cfg = dataclasses.replace(cfg, tracker=dataclasses.replace(cfg.tracker, kind=tracker))
     return UWBSchedulingEnv(cfg, **kwargs)

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
 
-from uwb_env.agents.campaign import Campaign, run_campaign, run_path
+from uwb_env.agents.campaign import ONE_RECEIVER, Campaign, make_env, play_scheme, run_campaign, run_path
 from uwb_env.agents.cli import evaluate_main as main
 from uwb_env.agents.cli import parse_overrides
 from uwb_env.agents.summary import mean_ci, run_metrics, summarise
@@ -106,6 +107,40 @@ def test_bad_campaigns_raise(capsys):
     with pytest.raises(SystemExit) as e:
         main(["--set", "n_scans", "--runs", "2"])
     assert e.value.code == 2 and "--set 'n_scans'" in capsys.readouterr().err
+
+
+def test_the_open_loop_on_one_receiver_is_the_open_loop_tracker_with_the_overrides_of_one_pair():
+    """Seed 003's baseline "without any diversity mode": one NCV UKF on pair (0, 0), that receiver's azimuth added;
+    the same run as the open-loop scheme on a campaign that sets those overrides itself (and they are not set twice).
+    """
+    one = Campaign(**{**_campaign(2).__dict__, "schemes": ("round-robin@open-loop-one-rx",),
+                      "baseline": "round-robin@open-loop-one-rx"})  # fmt: skip
+    env = make_env(one, "open-loop-one-rx")
+    assert env.sim.sensor.pairs.tolist() == [[0, 0]] and env.cfg.sensing.measure_doa
+    assert env.sim.tracker.model_names == ("ncv",)
+    assert make_env(_campaign(2), "open-loop").sim.sensor.pairs.tolist() == [[0, 0], [0, 1]]  # the scenario's two
+    direct = Campaign(**{**_campaign(2).__dict__, "overrides": {**SMALL, **ONE_RECEIVER}})
+    a, names = play_scheme(one, "round-robin@open-loop-one-rx", 8)
+    b, names_b = play_scheme(direct, "round-robin@open-loop", 8)
+    assert names == names_b
+    np.testing.assert_array_equal(a, b)
+    clash = Campaign(**{**one.__dict__, "overrides": {**SMALL, "sensing.measure_doa": False}})
+    with pytest.raises(ValueError, match=r"'open-loop-one-rx' sets \['sensing.measure_doa'\] itself"):
+        make_env(clash, "open-loop-one-rx")
+
+
+def test_an_open_loop_takes_its_ncv_white_acceleration_and_bad_ones_are_refused():
+    tuned = Campaign(
+        **{**_campaign(2).__dict__, "schemes": ("myopic", "round-robin@open-loop:1.57"), "baseline": "myopic"}
+    )
+    for tracker, sigma in (("open-loop:1.57", 1.57), ("open-loop", 0.5), ("open-loop-one-rx:2", 2.0)):
+        (model,) = make_env(tuned, tracker).cfg.tracker.models
+        assert (model.kind, model.accel_noise_std_mps2) == ("ncv", sigma)
+    for scheme, why in (("myopic@open-loop:abc", "SIGMA 'abc' must be a number in (0, 1000]"),
+                        ("myopic@open-loop:0", "SIGMA '0' must be"), ("myopic@open-loop:nan", "SIGMA 'nan' must be"),
+                        ("myopic@imm-lmipda:1", "only an open-loop tracker takes ':SIGMA'")):  # fmt: skip
+        with pytest.raises(ValueError, match=re.escape(why)):
+            Campaign(env="uwb_env/UrbanWaveform-v3", schemes=(scheme,), baseline=scheme, runs=3)
 
 
 def test_command_line_prints_the_table(tmp_path, capsys):
