@@ -174,20 +174,20 @@ def check_types(campaign: Campaign) -> None:
 
 def parse_scheme(scheme: str) -> tuple[str, str]:
     """``"SCHEDULER[@TRACKER]"`` -> (scheduler, tracker), both checked (``TRACKER`` may be ``open-loop:SIGMA``)."""
-    scheduler, _, tracker = scheme.partition("@")
-    tracker = tracker or "scenario"
-    name, colon, sigma = tracker.partition(":")
+    scheduler, _, spec = scheme.partition("@")
+    spec = spec or "scenario"
+    name, colon, sigma = spec.partition(":")
     if colon:
         if not name.startswith("open-loop"):
             raise ValueError(f"scheme {scheme!r}: only an open-loop tracker takes ':SIGMA' (got {name!r})")
         open_loop_sigma(scheme, sigma)
     if name not in TRACKERS:
-        raise ValueError(f"scheme {scheme!r}: tracker {tracker!r} must be one of {TRACKERS}")
+        raise ValueError(f"scheme {scheme!r}: tracker {spec!r} must be one of {TRACKERS}")
     try:
         check_scheduler_name(scheduler)  # raises with the allowed names
     except ValueError as e:
         raise ValueError(f"scheme {scheme!r}: {e}") from None
-    return scheduler, tracker
+    return scheduler, spec
 
 
 def open_loop_sigma(scheme: str, text: str) -> float:
@@ -201,7 +201,7 @@ def open_loop_sigma(scheme: str, text: str) -> float:
     return sigma
 
 
-def make_env(campaign: Campaign, tracker: str) -> UWBSchedulingEnv:
+def make_env(campaign: Campaign, spec: str) -> UWBSchedulingEnv:
     """The campaign's environment (the registered id's arguments, the overrides, the scheme's tracker).
 
     A scene-family id (``uwb_env.envs.FAMILY_ENV_IDS``) gives a ``SceneFamilyEnv``: the overrides and the scheme's
@@ -211,8 +211,8 @@ def make_env(campaign: Campaign, tracker: str) -> UWBSchedulingEnv:
     """
     kwargs = {**ENV_IDS[campaign.env], **campaign.env_kwargs}
     overrides = dict(campaign.overrides)
-    tracker, colon, sigma_text = tracker.partition(":")
-    ncv = {"accel_noise_std_mps2": open_loop_sigma(tracker, sigma_text)} if colon else {}
+    tracker, colon, sigma_text = spec.partition(":")
+    ncv = {"accel_noise_std_mps2": open_loop_sigma(spec, sigma_text)} if colon else {}
     if tracker == "open-loop-one-rx":
         clash = sorted(set(overrides) & set(ONE_RECEIVER))
         if clash:
