@@ -117,8 +117,12 @@ def test_invalid_actions_raise_naming_the_value(bad):
 def test_bad_env_arguments_raise():
     with pytest.raises(ValueError, match="action_kind='x'"):
         gym.make("uwb_env/UrbanWaveform-v3", action_kind="x")
-    with pytest.raises(ValueError, match="measure_doa = True"):  # the chirp signal path measures no azimuth
-        gym.make("uwb_env/UrbanWaveform-v3", fidelity="signal", **{"sensing.measure_doa": True})
+    with pytest.raises(ValueError, match="measure_doa = True"):  # direction finding needs the orthogonal beams
+        gym.make(
+            "uwb_env/UrbanWaveform-v3",
+            fidelity="signal",
+            **{"sensing.measure_doa": True, "sensing.array_beams": "boresight"},
+        )
     with pytest.raises(ValueError, match="fidelity='exact'"):
         gym.make("uwb_env/UrbanWaveform-v3", fidelity="exact")
     with pytest.raises(ValueError, match="subset_size=7"):

@@ -8,6 +8,7 @@ formula, false peaks against the sensor's own expectation, common random numbers
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import gymnasium as gym
@@ -21,7 +22,8 @@ from uwb_env.detection.delay_doppler import estimate_noise_power
 from uwb_env.rng import RngStreams
 from uwb_env.scene.truth import sample_truth
 from uwb_env.sensing import ParametricSensor, ScanPlan
-from uwb_env.sensing.beams import beam_gain, beam_gains, beam_sines
+from uwb_env.sensing.beams import beam_gain, beam_gains, beam_sines, beam_weights, ml_direction
+from uwb_env.sensing.parametric import azimuth_variance, receiver_beams
 from uwb_env.sensing.pd import detection_probability, windowed_detection_probability
 from uwb_env.sensing.signal import ChirpSignalSensor
 from uwb_env.sensing.signal import chirp_chain as cc
@@ -193,8 +195,10 @@ def test_records_and_common_random_numbers(sensor):
 
 
 def test_unsupported_settings_raise():
-    with pytest.raises(ValueError, match=r"sensing\.measure_doa = True"):
-        ChirpSignalSensor(scenarios.get("urban-intersection", **{"sensing.measure_doa": True}))
+    with pytest.raises(ValueError, match=r"array_beams = 'boresight' with measure_doa = True: .* use 'dft'"):
+        ChirpSignalSensor(
+            scenarios.get("urban-intersection", **{"sensing.measure_doa": True, "sensing.array_beams": "boresight"})
+        )
     with pytest.raises(ValueError, match="array_beams = 'steered'"):
         ChirpSignalSensor(scenarios.get("urban-intersection", **{"sensing.array_beams": "steered"}))
 
@@ -245,3 +249,85 @@ def test_urban_env_at_signal_fidelity_steps_a_whole_episode():
         done = terminated or truncated
         n += 1
     assert n == CFG.n_scans
+
+
+# ------------------------------------------------------------------------------------------- direction finding
+def test_ml_direction_of_dft_beam_vectors_is_exact_noiseless_and_reaches_the_ula_crlb():
+    """Beam-space vectors of 3 half-wavelength elements (the urban arrays): noiseless plane waves give their
+    direction to 1 % of the 0.05 deg grid step (parabolic refinement); with white element noise at SNR_e 100 the
+    estimates are unbiased (3 SE) and their variance is parametric.azimuth_variance(L SNR_e) within 4 sampling SE
+    (var of a variance estimate: 2 sigma^4 / n), at a beam centre, midway and near the +-50 deg edge."""
+    L, d = 3, LAM / 2.0
+    w = beam_weights(beam_sines("dft", L, d, LAM), L, d, LAM)
+    grid = np.linspace(-math.radians(50.0), math.radians(50.0), 2001)
+    steer = cc.element_phases(grid, 0.0, L, d, LAM) @ w.conj().T
+    truth = np.radians([0.0, 7.31, -19.5, 33.3, 47.0])
+    clean = ml_direction(cc.element_phases(truth, 0.0, L, d, LAM) @ w.conj().T, steer, grid)
+    np.testing.assert_allclose(clean, truth, atol=0.01 * (grid[1] - grid[0]))
+    rng = np.random.default_rng(3)
+    n, snr_e = 4000, 100.0
+    for theta in np.radians([0.0, -19.5, 40.0]):
+        x = cc.element_phases(np.full(n, theta), 0.0, L, d, LAM) * math.sqrt(snr_e)
+        x = x * np.exp(1j * rng.uniform(-math.pi, math.pi, (n, 1)))
+        x = x + (rng.standard_normal((n, L)) + 1j * rng.standard_normal((n, L))) / math.sqrt(2.0)
+        err = ml_direction(x @ w.conj().T, steer, grid) - theta
+        crlb = float(azimuth_variance(np.array([L * snr_e]), L, d, LAM, np.array([theta]))[0])
+        assert abs(err.mean()) <= 3.0 * err.std() / math.sqrt(n)
+        assert err.var() == pytest.approx(crlb, abs=4.0 * crlb * math.sqrt(2.0 / n))
+
+
+DOA_CFG = scenarios.get("urban-intersection", **{"sensing.fidelity": "signal", "sensing.measure_doa": True})
+
+
+@pytest.fixture(scope="module")
+def doa_sensor() -> ChirpSignalSensor:
+    return ChirpSignalSensor(DOA_CFG)
+
+
+def test_ml_azimuth_of_the_chain_reaches_the_crlb_the_record_reports(doa_sensor):
+    """Echoes at 25 dB image SNR through the whole chain (clutter residue, noise, detection, beam merge): the ML
+    direction from the beams' values at the peak is unbiased (mean error within 3 SE). The record reports the
+    parametric model's variance, the ULA CRLB at the detecting beam's SNR; at a beam centre (boresight, g = 1) the
+    chain's spread is that bound within 30 % (issue 15's bound check; mean z^2 1.11 / 1.19 on two streams of 150).
+    Midway between two beams (19.5 deg off, beam gain g = 4/9) the detecting beam's SNR is the array's x g, and the
+    ML direction, which uses every beam, does better than the reported variance: mean z^2 0.64 / 0.70 here (0.39-0.47
+    noiseless of clutter residue at 25-40 dB, where it reaches the array's CRLB, g); the report is conservative by up
+    to 1 / g there, as the parametric model's own draws are -- the same at both fidelities, asserted as it is: between
+    0.7 g and 1. Records: (range, range-rate, azimuth) with the parametric model's names, R positive definite with the
+    azimuth block, the clutter density spread over the field of view."""
+    episode = _episode(doa_sensor, 1)
+    rng = np.random.default_rng(5)
+    q = 0
+    bore, fov = doa_sensor.elements[q][2], doa_sensor.elements[q][3]
+    for off_deg in (0.0, 19.5):
+        err, z2 = [], []
+        for _ in range(150):
+            doa = bore + math.radians(off_deg)
+            tr = doa_sensor.controlled_scan(
+                episode, 0, q, [rng.uniform(150.0, 450.0)], [-LAM * rng.uniform(20.0, 50.0)], [doa], [10.0**2.5],
+                rng=rng,
+            )  # fmt: skip
+            hit = np.flatnonzero(tr.detections.origin == 0)
+            if not hit.size:
+                continue
+            i = hit[np.argmax(tr.detections.snr[hit])]
+            det = doa_sensor._record(episode, tr, 0.0)
+            e = math.remainder(float(det.z[i, 2]) - doa, 2.0 * math.pi)
+            err.append(e)
+            z2.append(e**2 / det.R[i, 2, 2])
+        err = np.array(err)
+        assert err.size >= 140
+        assert abs(err.mean()) <= 3.0 * err.std() / math.sqrt(err.size)
+        sines, n_el, spacing, lam = receiver_beams(DOA_CFG, doa_sensor.layout, doa_sensor.library)[0]
+        g = float(beam_gain(np.array([math.radians(off_deg)]), sines, n_el, spacing, lam)[0])
+        if g > 0.99:
+            assert np.mean(z2) == pytest.approx(1.0, rel=0.3)
+        else:
+            assert 0.7 * g <= np.mean(z2) <= 1.0
+    assert det.measurement_names == ("bistatic_range", "range_rate", "azimuth")
+    assert det.measurement_names == doa_sensor.model.measurement_names(int(doa_sensor.pairs[q, 1]))
+    assert np.all(np.linalg.eigvalsh(det.R) > 0) and det.R.shape[1:] == (3, 3)
+    np.testing.assert_array_equal(det.R[:, 2, :2], 0.0)
+    flat = doa_sensor._record(episode, dataclasses.replace(tr, azimuth_rad=None), 0.0)  # no azimuth column
+    np.testing.assert_allclose(det.clutter_intensity, flat.clutter_intensity / (2.0 * fov))
+    np.testing.assert_array_equal(det.z[:, :2], flat.z)

@@ -94,3 +94,27 @@ def beam_gain(
         n_elements: L; spacing_m: d [m]; wavelength_m: lambda [m].
     """
     return beam_gains(off_boresight_rad, sines, n_elements, spacing_m, wavelength_m).max(axis=0)
+
+
+def ml_direction(y: npt.NDArray[np.complex128], steering: ComplexArray, grid_rad: FloatArray) -> FloatArray:
+    r"""Maximum-likelihood direction of one source per snapshot from its beam-space vector ``(n, M)`` [rad].
+
+    The beams of ``kind = "dft"`` are orthogonal with equal noise gains (module docstring), so the beam-space noise
+    is white and the ML estimate of one deterministic source in it is the beam-space "Bartlett" maximiser
+
+        theta_hat = argmax_theta |b(theta)^H y|^2 / ||b(theta)||^2,
+
+    b(theta) the beams' response ``steering`` ``(G, M)`` on ``grid_rad`` ``(G,)`` (ascending, evenly spaced), refined
+    between grid points by the vertex of the parabola through the best point and its two neighbours (an edge point is
+    kept). Its variance reaches the ULA CRLB (``uwb_env.sensing.parametric.azimuth_variance``) at high SNR.
+    """
+    y = np.asarray(y, dtype=complex).reshape(-1, steering.shape[1])
+    power = np.abs(y @ steering.conj().T) ** 2 / np.sum(np.abs(steering) ** 2, axis=1)[None]  # (n, G)
+    best = np.argmax(power, axis=1)
+    step = float(grid_rad[1] - grid_rad[0]) if grid_rad.shape[0] > 1 else 0.0
+    inner = (best > 0) & (best < grid_rad.shape[0] - 1)
+    rows = np.arange(y.shape[0])
+    lo, mid, hi = (power[rows, np.clip(best + d, 0, grid_rad.shape[0] - 1)] for d in (-1, 0, 1))
+    curvature = lo - 2.0 * mid + hi
+    shift = np.where(inner & (curvature < 0.0), 0.5 * (lo - hi) / np.where(curvature < 0.0, curvature, -1.0), 0.0)
+    return grid_rad[best] + shift * step

@@ -5,7 +5,10 @@ with at most three reflections (``uwb_env.channel.multipath``) is synthesised in
 matched-filtered, combined into receive beams and turned into delay-Doppler images (``sensing.signal.chirp_chain``);
 seed 003's section 4.1 detector (``uwb_env.detection.delay_doppler``) subtracts the background, thresholds each
 cell, finds the peaks iteratively and fits them. Each pair's detections become one :class:`Detections` record,
-z = [bistatic range, range-rate folded into [-P/2, P/2)], P = lambda / T1, with R from the fitted curvature.
+z = [bistatic range, range-rate folded into [-P/2, P/2)], P = lambda / T1, with R from the fitted curvature; with
+``sensing.measure_doa`` an array receiver's detections add the azimuth, the ML direction from the L orthogonal
+beams' complex values at the peak cell (``beams.ml_direction``), with the parametric model's variance
+(:meth:`ChirpSignalSensor._with_azimuth`).
 
 Choices (the seed leaves them open; each one is shared with the parametric model so that both fidelities agree):
 
@@ -108,8 +111,8 @@ from uwb_env.detection.delay_doppler import (
 )
 from uwb_env.rng import RngStreams
 from uwb_env.scene.truth import Truth
-from uwb_env.sensing.beams import beam_weights
-from uwb_env.sensing.parametric import ParametricSensor, fold_range_rate, receiver_beams
+from uwb_env.sensing.beams import beam_weights, ml_direction
+from uwb_env.sensing.parametric import ParametricSensor, azimuth_variance, fold_range_rate, receiver_beams
 from uwb_env.sensing.protocol import register_sensor
 from uwb_env.sensing.records import Detections, ScanPlan
 from uwb_env.sensing.signal import chirp_chain as cc
@@ -129,6 +132,8 @@ guard cells of nearby noise peaks suppress each other. Interpolated in log Pfa, 
 _KL_ENERGY = 1.0 - 1e-4
 """Slow-time Karhunen-Loeve modes of the diffuse clutter kept per waveform: this fraction of its energy."""
 _C = SPEED_OF_LIGHT_MPS
+DOA_GRID_STEP_RAD = math.radians(0.05)
+"""Grid of the ML direction search (refined between points by a parabola): 1/40 of the azimuth std at 40 dB."""
 _jit = nb.njit(cache=True, fastmath=False, nogil=True)
 
 
@@ -140,7 +145,9 @@ class PairTrace:
         pair: formed-pair index. waveform: library index. detections: merged over the beams, inside the gate,
         sorted by range, ``origin`` the fine truth code (target index, -1 static path, -2 ghost, -3 noise).
         beam: ``(n,)`` the beam each detection was taken from. source: ``(n,)`` the target whose path (direct or
-        multipath) the detection lies on, within one resolution cell (the nearest), -1 for none.
+        multipath) the detection lies on, within one resolution cell (the nearest), -1 for none. azimuth_rad:
+        ``(n,)`` the ML direction of arrival [rad, global] from the beams' values at the peak cell, or None where the
+        pair's receiver does not measure azimuth.
     """
 
     pair: int
@@ -148,6 +155,7 @@ class PairTrace:
     detections: DelayDopplerDetections
     beam: IntArray
     source: IntArray
+    azimuth_rad: FloatArray | None = None
 
 
 @dataclass(slots=True)
@@ -208,10 +216,10 @@ class ChirpSignalSensor(ParametricModelHooks):
         lay = self.layout
         if not all(isinstance(w.config, ChirpWaveformConfig) for w in self.library.waveforms):
             raise ValueError(f"waveforms of {cfg.name!r}: the chirp signal path synthesises chirp pulse trains only")
-        if sens.measure_doa:
+        if sens.measure_doa and sens.array_beams != "dft":
             raise ValueError(
-                "sensing.measure_doa = True: the chirp signal path measures bistatic range and range-rate only "
-                "(no direction of arrival from the element images); set it False or use fidelity 'parametric'"
+                f"sensing.array_beams = {sens.array_beams!r} with measure_doa = True: the chirp signal path estimates "
+                "the direction from the L orthogonal beams' values at a peak; use 'dft' (or measure_doa = False)"
             )
         if sens.array_beams == "steered":
             raise ValueError(
@@ -293,6 +301,16 @@ class ChirpSignalSensor(ParametricModelHooks):
         self.searched_cells = np.stack([self._searched_cells(g) for g in self.grids])  # (W, P) per beam
         unit = [w.unit_covariance for w in self.library.waveforms]
         self._correlation = np.array([u[0, 1] / math.sqrt(u[0, 0] * u[1, 1]) for u in unit])  # (W,)
+        # Direction finding (measure_doa): per pair whose receiver measures azimuth, a global-azimuth grid over the
+        # field of view and the beams' responses on it (beams.ml_direction); None for the others.
+        self._doa_grids: list[tuple[FloatArray, ComplexArray] | None] = []
+        for q, r in enumerate(self.pairs[:, 1].tolist()):  # formed pairs: a handful
+            if "azimuth" not in self.model.measurement_names(r):
+                self._doa_grids.append(None)
+                continue
+            _, _, bore, fov = self.elements[q]
+            grid_rad = bore + np.linspace(-fov, fov, int(np.ceil(2.0 * fov / DOA_GRID_STEP_RAD)) + 1)
+            self._doa_grids.append((grid_rad, self._beam_phasors(q, grid_rad)))
 
     # ------------------------------------------------------------------------------------------------ set-up
     def _max_elements(self) -> int:
@@ -529,7 +547,8 @@ class ChirpSignalSensor(ParametricModelHooks):
     ) -> tuple[PairTrace, ...]:
         """Images, section-4.1 detection per beam, merge over the beams, gate, truth origin; one trace per pair."""
         grid = self.grids[w]
-        mag = np.abs(cc.delay_doppler_images(grid, spectra))  # (A, M, D, F)
+        images = cc.delay_doppler_images(grid, spectra)  # (A, M, D, F) complex
+        mag = np.abs(images)
         out = []
         for i, q in enumerate(active.tolist()):  # active pairs: a handful
             axes = grid.axes(q)
@@ -560,7 +579,9 @@ class ChirpSignalSensor(ParametricModelHooks):
                 np.concatenate([static.kind, p.kind]) == PathKind.TARGET,
                 axes,
             )
-            out.append(PairTrace(q, w, det, beam, _source_target(det, p, axes)))
+            doa = self._doa_grids[q]
+            azimuth = None if doa is None else ml_direction(images[i][:, det.row, det.col].T, doa[1], doa[0])
+            out.append(PairTrace(q, w, det, beam, _source_target(det, p, axes), azimuth))
         return tuple(out)
 
     # ------------------------------------------------------------------------------------------------ a scan
@@ -594,13 +615,17 @@ class ChirpSignalSensor(ParametricModelHooks):
         lam_fp = float(episode.expected_false_peaks[w, tr.pair])
         density = lam_fp / ((self.gate[1] - self.gate[0][tr.pair]) * period)
         n = len(det)
+        z = np.stack([det.range_m, fold_range_rate(det.range_rate_mps, period)], axis=1)
+        R = self.covariance(det.R, w)
+        if tr.azimuth_rad is not None:
+            z, R, density = self._with_azimuth(tr, z, R, density)
         return Detections(
             tx=t,
             rx=r,
             waveform=w,
             time_s=time_s,
-            z=np.stack([det.range_m, fold_range_rate(det.range_rate_mps, period)], axis=1),
-            R=self.covariance(det.R, w),
+            z=z,
+            R=R,
             snr=det.snr,
             origin=np.where(det.origin >= 0, det.origin, -1),
             measurement_names=self.model.measurement_names(r),
@@ -609,17 +634,45 @@ class ChirpSignalSensor(ParametricModelHooks):
             range_rate_period_mps=period,
         )
 
+    def _with_azimuth(
+        self, tr: PairTrace, z: FloatArray, R: FloatArray, density: float
+    ) -> tuple[FloatArray, FloatArray, float]:
+        """Append the ML azimuth to ``z`` ``(n, 2)``, its variance to ``R`` ``(n, 2, 2)``, and spread the density.
+
+        The variance is the parametric model's (``parametric.azimuth_variance`` at the peak's fitted SNR, the
+        detecting beam's), scaled like the range by the accuracy floor (:meth:`covariance`). The ML direction uses
+        every beam and reaches the CRLB at the array's SNR, which is the beam's / its gain g: at a beam centre the
+        two agree; off it this variance is 1 / g too large (up to 2.25 midway between the DFT beams), as the
+        parametric model's draws are -- conservative and the same at both fidelities (tests/unit/test_chirp_sensor.py).
+        False peaks are taken as uniform in azimuth over the field of view: the clutter density per m x m/s is
+        divided by its width.
+        """
+        q = tr.pair
+        n_el, spacing, bore, fov = self.elements[q]
+        az = tr.azimuth_rad
+        off = np.angle(np.exp(1j * (az - bore)))
+        var = azimuth_variance(np.maximum(tr.detections.snr, 1e-12), n_el, spacing, self.wavelength, off)
+        var = var * self._floor_scale(tr.detections.R)
+        R3 = np.zeros((z.shape[0], 3, 3))
+        R3[:, :2, :2] = R
+        R3[:, 2, 2] = var
+        return np.column_stack([z, np.angle(np.exp(1j * az))]), R3, density / (2.0 * fov)
+
     def covariance(self, R: FloatArray, w: int) -> FloatArray:
         """``(n, 2, 2)`` the fitted variances with the waveform's range-range-rate correlation (module docstring).
 
         Both variances are scaled up together where the range std is below ``SensingConfig.min_range_std_m``: the
         parametric model's accuracy floor (``uwb_env.sensing.parametric.accuracy_snr_caps``) at the fitted SNR.
         """
-        floor = self.cfg.sensing.min_range_std_m**2
-        out = R * np.maximum(1.0, floor / np.maximum(R[:, 0, 0], 1e-300))[:, None, None]
+        out = R * self._floor_scale(R)[:, None, None]
         c = self._correlation[w] * np.sqrt(out[:, 0, 0] * out[:, 1, 1])
         out[:, 0, 1] = out[:, 1, 0] = c
         return out
+
+    def _floor_scale(self, R: FloatArray) -> FloatArray:
+        """``(n,)`` the factor lifting each fitted range variance of ``R`` ``(n, 2, 2)`` to the accuracy floor."""
+        floor = self.cfg.sensing.min_range_std_m**2
+        return np.maximum(1.0, floor / np.maximum(R[:, 0, 0], 1e-300))
 
     # ------------------------------------------------------------------------------------------------ calibration
     def controlled_scan(
