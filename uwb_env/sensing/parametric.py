@@ -1350,7 +1350,7 @@ class ParametricSensor:
                 continue
             lo, hi = bounds[p], bounds[p + 1]
             if self._doa_rx[r]:
-                z, R = rows[lo:hi, 1 : 2 + m], _append_block(cov[lo:hi], rows[lo:hi, col["az_var"]])
+                z, R = rows[lo:hi, 1 : 2 + m], append_block(cov[lo:hi], rows[lo:hi, col["az_var"]])
             else:
                 z, R = rows[lo:hi, 1 : 1 + m], cov[lo:hi]
             out.append(
@@ -1899,7 +1899,7 @@ class ParametricSensor:
             n_el, spacing = lay.rx_n_elements[rx], lay.rx_spacing_m[rx]
             var = azimuth_variance(safe, n_el, spacing, self._wavelengths[waveforms][:, None], off)  # (W, N)
             m = R.shape[-1] + 1
-            R = _append_block(R.reshape(-1, m - 1, m - 1), var.reshape(-1)).reshape(*var.shape, m, m)
+            R = append_block(R.reshape(-1, m - 1, m - 1), var.reshape(-1)).reshape(*var.shape, m, m)
         return R
 
     def clutter_intensity_at(
@@ -1990,7 +1990,7 @@ def _wrap(angle: FloatArray) -> FloatArray:
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
-def _append_block(cov: FloatArray, var: FloatArray) -> FloatArray:
+def append_block(cov: FloatArray, var: FloatArray) -> FloatArray:
     """Block-diagonal ``(n, m+1, m+1)`` from ``cov`` (n, m, m) and a scalar variance (n,)."""
     n, m = cov.shape[0], cov.shape[1]
     out = np.zeros((n, m + 1, m + 1))

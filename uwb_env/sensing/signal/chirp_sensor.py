@@ -112,7 +112,13 @@ from uwb_env.detection.delay_doppler import (
 from uwb_env.rng import RngStreams
 from uwb_env.scene.truth import Truth
 from uwb_env.sensing.beams import beam_weights, ml_direction
-from uwb_env.sensing.parametric import ParametricSensor, azimuth_variance, fold_range_rate, receiver_beams
+from uwb_env.sensing.parametric import (
+    ParametricSensor,
+    append_block,
+    azimuth_variance,
+    fold_range_rate,
+    receiver_beams,
+)
 from uwb_env.sensing.protocol import register_sensor
 from uwb_env.sensing.records import Detections, ScanPlan
 from uwb_env.sensing.signal import chirp_chain as cc
@@ -653,10 +659,7 @@ class ChirpSignalSensor(ParametricModelHooks):
         off = np.angle(np.exp(1j * (az - bore)))
         var = azimuth_variance(np.maximum(tr.detections.snr, 1e-12), n_el, spacing, self.wavelength, off)
         var = var * self._floor_scale(tr.detections.R)
-        R3 = np.zeros((z.shape[0], 3, 3))
-        R3[:, :2, :2] = R
-        R3[:, 2, 2] = var
-        return np.column_stack([z, np.angle(np.exp(1j * az))]), R3, density / (2.0 * fov)
+        return np.column_stack([z, np.angle(np.exp(1j * az))]), append_block(R, var), density / (2.0 * fov)
 
     def covariance(self, R: FloatArray, w: int) -> FloatArray:
         """``(n, 2, 2)`` the fitted variances with the waveform's range-range-rate correlation (module docstring).
